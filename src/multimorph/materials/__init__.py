@@ -1,0 +1,34 @@
+"""Materials room: strain-energy laws, the Material value object, load cases, stability,
+fitting, test-data readers and the built-in library.
+"""
+
+from multimorph.materials._loadcases import (
+    LOAD_CASES,
+    StabilityReport,
+    canonical_case,
+    drucker_stability,
+    nominal_stress,
+    stress_function,
+    stretches,
+)
+from multimorph.materials._material import OGDEN_CONVENTIONS, Material, Provenance
+from multimorph.materials._math import JAX_MATH, JaxMath
+from multimorph.materials._registry import MODEL_NAMES, Law, get_law
+
+__all__ = [
+    "JAX_MATH",
+    "LOAD_CASES",
+    "MODEL_NAMES",
+    "OGDEN_CONVENTIONS",
+    "JaxMath",
+    "Law",
+    "Material",
+    "Provenance",
+    "StabilityReport",
+    "canonical_case",
+    "drucker_stability",
+    "get_law",
+    "nominal_stress",
+    "stress_function",
+    "stretches",
+]
