@@ -14,6 +14,7 @@ from multimorph.materials._loadcases import (
 from multimorph.materials._material import OGDEN_CONVENTIONS, Material, Provenance
 from multimorph.materials._math import JAX_MATH, JaxMath
 from multimorph.materials._registry import MODEL_NAMES, Law, get_law
+from multimorph.materials._spec import material_from_spec
 
 __all__ = [
     "JAX_MATH",
@@ -28,6 +29,7 @@ __all__ = [
     "canonical_case",
     "drucker_stability",
     "get_law",
+    "material_from_spec",
     "nominal_stress",
     "stress_function",
     "stretches",

@@ -1,0 +1,26 @@
+"""The typer application; each command module registers itself here (one line each)."""
+
+from __future__ import annotations
+
+import typer
+
+app = typer.Typer(
+    name="multimorph",
+    help="Design sequentially multimodal, single-input soft pneumatic actuators (pneu-nets).",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+
+
+def _register() -> None:
+    # one line per command module; each module defines ``register(app)``
+    from multimorph.cli import _material
+
+    _material.register(app)
+
+
+def main() -> None:
+    """Console-script entry point."""
+    _register()
+    app()
