@@ -1,0 +1,193 @@
+"""Sweep backends: the small interface a model implements to be swept, and the registry.
+
+A backend evaluates a *batch* of designs at once::
+
+    backend.evaluate_batch(designs, pmax, outputs, options) -> list[Response | Mapping | Exception]
+
+one entry per design, in order: a :class:`~multimorph.response.Response`, a mapping already in
+record form (see :func:`record_from_response`), or an exception instance for a design that
+failed (its message is stored; the sweep goes on). ``batch_size`` is the backend's preferred
+number of designs per Dask task (large for the batched reduced model, 1 for FE).
+
+Built in: ``"rom"`` (the batched reduced-order model, :mod:`multimorph.rom`) and ``"fe"`` (the
+finite-element model, :mod:`multimorph.fe`, one design per task). Other backends (for example
+a test-only analytic model) are added with :func:`register_backend`. Backend objects travel to
+Dask workers by pickling, so they must be picklable (plain classes at module level are).
+"""
+
+from __future__ import annotations
+
+import importlib
+import math
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+
+from multimorph.errors import MultimorphError, SpecError
+from multimorph.geometry import CellGeometry
+
+__all__ = ["CURVE_VARS", "SCALAR_VARS", "SweepBackend", "evaluate_designs", "get_backend",
+           "record_from_response", "register_backend"]
+
+#: Per-design scalar outputs (Pa or 1/m; NaN when not reached) of ``"characteristic"``.
+SCALAR_VARS = ("critical_pressure", "hardening_pressure", "failure_pressure",
+               "curvature_at_critical", "curvature_at_hardening", "curvature_at_failure")
+#: Per-point curve outputs of ``"curves"``: the whole equilibrium path.
+CURVE_VARS = ("pressure", "curvature", "peak_stretch", "stable")
+
+
+@runtime_checkable
+class SweepBackend(Protocol):
+    """What :func:`multimorph.sweep.run_sweep` needs from a model."""
+
+    name: str
+    batch_size: int
+
+    def evaluate_batch(self, designs: Sequence[CellGeometry], pmax: float,
+                       outputs: Sequence[str], options: Mapping[str, Any]) -> list[Any]:
+        """Evaluate ``designs`` up to pressure ``pmax`` (Pa); one entry per design."""
+        ...
+
+
+_REGISTRY: dict[str, Callable[[], SweepBackend]] = {}
+
+
+def register_backend(name: str, factory: Callable[[], SweepBackend]) -> None:
+    """Make ``factory()`` available as ``[sweep] backend = name``."""
+    _REGISTRY[name] = factory
+
+
+def get_backend(name: str) -> SweepBackend:
+    """The backend called ``name``: ``"rom"``, ``"fe"``, a registered one, or an import path
+    ``"package.module:factory"`` (a class or function returning a backend)."""
+    if name in _REGISTRY:
+        return _REGISTRY[name]()
+    if ":" in name:
+        mod, _, attr = name.partition(":")
+        try:
+            factory = getattr(importlib.import_module(mod), attr)
+        except (ImportError, AttributeError) as exc:
+            raise SpecError(f"sweep.backend: cannot import {name!r} ({exc})") from None
+        return factory()
+    known = ", ".join(sorted(_REGISTRY))
+    raise SpecError(f"sweep.backend: unknown backend {name!r}; known: {known}, or "
+                    "\"module:factory\"")
+
+
+def _f(x: Any) -> float:
+    return math.nan if x is None else float(x)
+
+
+def record_from_response(resp: Any, outputs: Sequence[str]) -> dict[str, Any]:
+    """Convert a :class:`~multimorph.response.Response` to a flat record (SI, NaN for None)."""
+    rec: dict[str, Any] = {}
+    if "characteristic" in outputs:
+        ch = resp.characteristic
+        at = ch.curvature_at or {}
+        rec.update(critical_pressure=_f(ch.critical), hardening_pressure=_f(ch.hardening),
+                   failure_pressure=_f(ch.failure), critical_kind=ch.critical_kind or "",
+                   curvature_at_critical=_f(at.get("critical")),
+                   curvature_at_hardening=_f(at.get("hardening")),
+                   curvature_at_failure=_f(at.get("failure")))
+    if "curves" in outputs:
+        path = resp.path
+        rec.update(pressure=np.asarray(path.pressure, float),
+                   curvature=np.asarray(path.curvature, float),
+                   peak_stretch=np.asarray(path.peak_stretch, float),
+                   stable=np.asarray(path.stable, bool))
+    return rec
+
+
+def _normalise(item: Any, outputs: Sequence[str]) -> dict[str, Any]:
+    if isinstance(item, BaseException):
+        return {"status": "failed", "error": f"{type(item).__name__}: {item}"}
+    if isinstance(item, Mapping):
+        rec = dict(item)
+    else:
+        rec = record_from_response(item, outputs)
+    rec.setdefault("status", "ok")
+    rec.setdefault("error", "")
+    return rec
+
+
+def evaluate_designs(backend: SweepBackend, designs: Sequence[CellGeometry], pmax: float,
+                     outputs: Sequence[str], options: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """Evaluate a batch; a failing batch is retried design by design so one bad design fails
+    alone. Never raises for a design's error: it is returned as a ``"failed"`` record."""
+    try:
+        out = backend.evaluate_batch(designs, pmax, outputs, options)
+        if len(out) != len(designs):
+            raise MultimorphError(f"backend {backend.name} returned {len(out)} results for "
+                                  f"{len(designs)} designs")
+    except Exception as exc:
+        if len(designs) == 1:
+            out = [exc]
+        else:
+            out = []
+            for d in designs:
+                try:
+                    out.extend(backend.evaluate_batch([d], pmax, outputs, options))
+                except Exception as exc1:
+                    out.append(exc1)
+    return [_normalise(r, outputs) for r in out]
+
+
+# ------------------------------------------------------------------ built-in adapters
+def _import_model(module: str, issue: str) -> Any:
+    try:
+        return importlib.import_module(module)
+    except ModuleNotFoundError as exc:
+        if exc.name is not None and module.startswith(exc.name):
+            raise MultimorphError(
+                f"sweep backend needs {module}, which is not available in this installation "
+                f"({issue})") from None
+        raise MultimorphError(
+            f"sweep backend: importing {module} failed: missing dependency {exc.name!r} "
+            "(install the matching extra, e.g. pip install 'multimorph[fe]')") from None
+
+
+class RomBackend:
+    """The batched reduced-order model (:mod:`multimorph.rom`), many designs per task.
+
+    Batches are padded to a fixed size so the jitted, vmapped model compiles once per worker.
+    ``options`` are passed to the model as keyword arguments.
+    """
+
+    name = "rom"
+    batch_size = 256
+
+    def evaluate_batch(self, designs: Sequence[CellGeometry], pmax: float,
+                       outputs: Sequence[str], options: Mapping[str, Any]) -> list[Any]:
+        rom = _import_model("multimorph.rom", "the reduced model of issue 3")
+        fn = getattr(rom, "evaluate_batch", None) or getattr(rom, "simulate_batch", None)
+        if fn is None:
+            raise MultimorphError("multimorph.rom has no batched entry point "
+                                  "(evaluate_batch/simulate_batch) yet")
+        return list(fn(list(designs), pmax=pmax, **dict(options)))
+
+
+class FeBackend:
+    """The finite-element model (:mod:`multimorph.fe`), one design per task."""
+
+    name = "fe"
+    batch_size = 1
+
+    def evaluate_batch(self, designs: Sequence[CellGeometry], pmax: float,
+                       outputs: Sequence[str], options: Mapping[str, Any]) -> list[Any]:
+        fe = _import_model("multimorph.fe", "the finite-element model of issue 5")
+        fn = getattr(fe, "simulate_cell", None)
+        if fn is None:
+            raise MultimorphError("multimorph.fe has no simulate_cell(cell, pmax=...) entry "
+                                  "point yet")
+        out: list[Any] = []
+        for d in designs:
+            try:
+                out.append(fn(d, pmax=pmax, **dict(options)))
+            except Exception as exc:
+                out.append(exc)
+        return out
+
+
+register_backend("rom", RomBackend)
+register_backend("fe", FeBackend)

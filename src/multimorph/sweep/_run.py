@@ -1,0 +1,253 @@
+"""Running a sweep on Dask: batches of designs per task, results written as they finish.
+
+Schedulers (``scheduler=``):
+
+- ``None`` or ``"local"``: a ``dask.distributed.LocalCluster`` with ``workers`` worker
+  *processes* (one thread each), started and closed by the sweep;
+- ``"threads"``: Dask's local threaded scheduler (no distributed), ``workers`` threads;
+- ``"sync"``: Dask's synchronous scheduler (one thread, for debugging);
+- any other string: the address of a running ``dask.distributed`` scheduler
+  (``"tcp://host:8786"``), e.g. one started by dask-jobqueue on SLURM;
+- or pass ``client=`` (a ``distributed.Client``) directly.
+
+Every task evaluates one batch of designs and returns its records; the process running the
+sweep writes each batch to the store the moment it arrives, so a SIGKILL loses at most the
+batches in flight. A design that fails is recorded with its error; a task that raises (a
+broken worker, a crash outside the model) is retried ``retries`` times, then all its designs
+are recorded as failed. Dask also reschedules tasks of a worker that died.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from multimorph.errors import SpecError
+from multimorph.geometry import CellGeometry
+from multimorph.sweep._backends import SweepBackend, evaluate_designs, get_backend
+from multimorph.sweep._spec import SweepSpec, load_sweep_spec
+from multimorph.sweep._store import SweepStore
+
+__all__ = ["SweepSummary", "plan_batches", "run_sweep"]
+
+ProgressFn = Callable[[int, int], None]
+
+
+@dataclass(frozen=True)
+class SweepSummary:
+    """What a sweep did.
+
+    Attributes
+    ----------
+    out : Path
+        The sweep folder.
+    results : Path or None
+        ``out/results.zarr`` (None if nothing could be consolidated).
+    n_designs, n_invalid : int
+        All design points; those with an invalid geometry or material (listed in
+        ``invalid``, never evaluated).
+    n_ok, n_failed : int
+        Evaluated designs that succeeded / failed (both counted over the whole store).
+    n_resumed : int
+        Designs already in the store when this run started (skipped).
+    n_run : int
+        Designs evaluated by this run.
+    elapsed : float
+        Wall time of this run (s), including cluster start-up.
+    compute_time : float
+        Wall time from the first task submitted to the last batch written (s).
+    scheduler : str
+    """
+
+    out: Path
+    results: Path | None
+    n_designs: int
+    n_invalid: int
+    n_ok: int
+    n_failed: int
+    n_resumed: int
+    n_run: int
+    elapsed: float
+    compute_time: float
+    scheduler: str
+    invalid: list[dict[str, Any]] = field(default_factory=list)
+    failed: list[dict[str, Any]] = field(default_factory=list)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {k: getattr(self, k) for k in self.__dataclass_fields__}
+
+
+def plan_batches(valid: np.ndarray, done: np.ndarray, batch_size: int) -> list[np.ndarray]:
+    """Batches still to run: fixed chunks of the valid indices, minus finished designs.
+
+    The chunking depends only on the design table and the batch size, so a resumed sweep
+    evaluates each remaining design in the same batch (hence bitwise the same numbers) as an
+    uninterrupted one.
+    """
+    if batch_size < 1:
+        raise SpecError(f"batch size must be >= 1, got {batch_size}")
+    done_set = np.isin(valid, done)
+    out = []
+    for k in range(0, len(valid), batch_size):
+        sel = valid[k:k + batch_size][~done_set[k:k + batch_size]]
+        if sel.size:
+            out.append(sel)
+    return out
+
+
+def _task(backend: SweepBackend, indices: np.ndarray, designs: Sequence[CellGeometry],
+          pmax: float, outputs: Sequence[str], options: Mapping[str, Any],
+          ) -> tuple[np.ndarray, list[dict[str, Any]]]:
+    return indices, evaluate_designs(backend, designs, pmax, outputs, options)
+
+
+def _failed_batch(indices: np.ndarray, exc: BaseException) -> tuple[np.ndarray,
+                                                                      list[dict[str, Any]]]:
+    msg = f"task failed after retries: {type(exc).__name__}: {exc}"
+    return indices, [{"status": "failed", "error": msg} for _ in indices]
+
+
+def _run_local(jobs: list[tuple[Any, ...]], scheduler: str, workers: int | None,
+               write: Callable[[tuple[np.ndarray, list[dict[str, Any]]]], None]) -> None:
+    import dask
+    from dask.callbacks import Callback
+
+    keys = {}
+    tasks = []
+    for k, args in enumerate(jobs):
+        key = f"multimorph-sweep-batch-{k}"
+        keys[key] = k
+        tasks.append(dask.delayed(_task, pure=False)(*args, dask_key_name=key))
+
+    def posttask(key: Any, result: Any, dsk: Any, state: Any, worker_id: Any) -> None:
+        if key in keys:
+            write(result)
+
+    kw: dict[str, Any] = {"scheduler": "sync" if scheduler == "sync" else "threads"}
+    if scheduler == "threads" and workers:
+        kw["num_workers"] = workers
+    with Callback(posttask=posttask):
+        dask.compute(*tasks, **kw)
+
+
+def _run_distributed(jobs: list[tuple[Any, ...]], client: Any, retries: int,
+                     write: Callable[[tuple[np.ndarray, list[dict[str, Any]]]], None]) -> None:
+    from distributed import as_completed
+
+    futs = []
+    indices = {}
+    for args in jobs:
+        fut = client.submit(_task, *args, retries=retries, pure=False)
+        futs.append(fut)
+        indices[fut.key] = args[1]
+    del jobs
+    for fut in as_completed(futs):
+        try:
+            res = fut.result()
+        except Exception as exc:  # retries exhausted, or the worker kept dying
+            res = _failed_batch(indices[fut.key], exc)
+        write(res)
+        fut.release()
+
+
+def run_sweep(spec: SweepSpec | str | os.PathLike[str], out: str | os.PathLike[str], *,
+              scheduler: str | None = None, workers: int | None = None,
+              batch_size: int | None = None, retries: int = 2, client: Any = None,
+              backend: SweepBackend | None = None, progress: ProgressFn | None = None,
+              ) -> SweepSummary:
+    """Run (or resume) a sweep into the folder ``out``.
+
+    Parameters
+    ----------
+    spec : SweepSpec or path
+        Parsed spec or a TOML file.
+    out : path
+        Sweep folder (created; if it holds this sweep already, finished designs are skipped;
+        if it holds another sweep, :class:`~multimorph.errors.SpecError`).
+    scheduler : str, optional
+        ``None``/``"local"`` (LocalCluster, worker processes), ``"threads"``, ``"sync"``, or
+        a scheduler address. See the module docstring.
+    workers : int, optional
+        Worker processes (LocalCluster) or threads (``"threads"``); default: CPU count.
+    batch_size : int, optional
+        Designs per task; default: the backend's (256 for ROM, 1 for FE).
+    retries : int
+        Retries of a task that raised (distributed schedulers).
+    client : distributed.Client, optional
+        Use this client instead of creating one.
+    backend : SweepBackend, optional
+        Use this backend object instead of looking up ``spec.backend``.
+    progress : callable, optional
+        ``progress(done, total)`` after each batch (designs of this run).
+
+    Returns
+    -------
+    SweepSummary
+    """
+    t0 = time.perf_counter()
+    text = None
+    if not isinstance(spec, SweepSpec):
+        text = Path(spec).read_text(encoding="utf-8") if Path(spec).is_file() else None
+        spec = load_sweep_spec(spec)
+    be = backend if backend is not None else get_backend(spec.backend)
+    bs = int(batch_size or be.batch_size)
+    if bs < 1:
+        raise SpecError(f"batch size must be >= 1, got {bs}")
+    table = spec.design_table()
+    store = SweepStore(out, spec, table, spec_text=text)
+    label = "client" if client is not None else (scheduler or "local")
+    with store.locked():
+        store.prepare()
+        done = store.finished()
+        batches = plan_batches(table.valid_indices, done, bs)
+        total = int(sum(b.size for b in batches))
+        jobs = [(be, b, [table.cells[i] for i in b], spec.pmax, spec.outputs, spec.options)
+                for b in batches]
+        count = [0]
+
+        def write(res: tuple[np.ndarray, list[dict[str, Any]]]) -> None:
+            idx, recs = res
+            store.write_part(idx, recs)
+            count[0] += len(idx)
+            if progress is not None:
+                progress(count[0], total)
+
+        if progress is not None:
+            progress(0, total)
+        t1 = time.perf_counter()
+        if jobs:
+            if client is not None:
+                _run_distributed(jobs, client, retries, write)
+            elif scheduler in ("threads", "sync"):
+                _run_local(jobs, scheduler, workers, write)
+            else:
+                from distributed import Client, LocalCluster
+
+                if scheduler in (None, "local"):
+                    n = workers or os.cpu_count() or 1
+                    with LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                      dashboard_address=None) as cluster, \
+                            Client(cluster) as cl:
+                        _run_distributed(jobs, cl, retries, write)
+                else:
+                    with Client(scheduler) as cl:
+                        _run_distributed(jobs, cl, retries, write)
+        t2 = time.perf_counter()
+        results = store.consolidate()
+    import xarray as xr
+
+    ds = xr.open_zarr(results, consolidated=False)
+    status = ds["status"].values
+    err = ds["error"].values
+    failed = [{"index": int(i), "error": str(err[i])} for i in np.flatnonzero(status == "failed")]
+    return SweepSummary(
+        out=store.path, results=results, n_designs=len(table), n_invalid=len(table.invalid),
+        n_ok=int(np.sum(status == "ok")), n_failed=len(failed), n_resumed=int(done.size),
+        n_run=total, elapsed=time.perf_counter() - t0, compute_time=t2 - t1, scheduler=label,
+        invalid=[p.to_dict() for p in table.invalid], failed=failed)

@@ -1,0 +1,349 @@
+"""The results store: one folder per sweep, resumable, one result per design.
+
+Layout of ``OUT/``::
+
+    sweep.json          manifest: spec (as parsed), spec hash, package versions, parameters,
+                        counts, invalid points with their reasons
+    spec.toml           the spec file as given (when run from a file)
+    designs.zarr        the design table: every design (valid or not) and its parameters
+    parts/part-*.zarr   results, one Zarr group per finished batch (xarray, dim ``design``)
+    results.zarr        all designs merged (written when the sweep completes)
+    .lock               held (flock) while a sweep writes here
+
+Each part is written into a hidden temporary folder and renamed into ``parts/`` only when
+complete (``os.rename`` is atomic on one filesystem), so a killed sweep leaves finished parts
+intact and no half-written one; rerunning skips the designs found in parts. Zarr (not Parquet)
+because curves are 2-D (design × point) arrays, xarray writes and reads it natively, chunks
+are independent files (no rewrite of a growing table), and it works on object stores for
+clusters.
+"""
+
+from __future__ import annotations
+
+import fcntl
+import json
+import os
+import shutil
+import uuid
+from collections.abc import Iterator, Mapping, Sequence
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from multimorph.errors import MultimorphError, SpecError
+from multimorph.geometry import CELL_KEYS
+from multimorph.io import write_json
+from multimorph.sweep._backends import CURVE_VARS, SCALAR_VARS
+from multimorph.sweep._spec import DesignTable, SweepSpec
+
+__all__ = ["SweepStore", "open_results", "param_var", "safe_name"]
+
+FORMAT = "multimorph-sweep/1"
+
+
+def _versions() -> dict[str, str]:
+    import dask
+    import xarray
+    import zarr
+
+    import multimorph
+
+    return {"multimorph": multimorph.__version__, "dask": dask.__version__,
+            "xarray": xarray.__version__, "zarr": zarr.__version__}
+
+
+def safe_name(name: str) -> str:
+    """Variable name for a parameter or ratio (Zarr names cannot hold ``/``): ``ht/d`` ->
+    ``ht_d``, ``cell.top_wall`` -> ``cell_top_wall``."""
+    return name.replace("/", "_").replace(".", "_")
+
+
+def param_var(name: str) -> str:
+    """Variable holding a swept parameter's values in the design table."""
+    return f"param_{safe_name(name)}"
+
+
+def _strings(values: Sequence[str]) -> np.ndarray:
+    # variable-length strings (object dtype) have a stable Zarr v3 encoding
+    arr = np.empty(len(values), dtype=object)
+    arr[:] = list(values)
+    return arr
+
+
+def records_to_dataset(indices: Sequence[int], records: Sequence[Mapping[str, Any]],
+                       outputs: Sequence[str]) -> Any:
+    """An xarray Dataset (dims ``design``, ``point``) of one batch of records.
+
+    Curves of different lengths are padded with NaN (``stable`` with False); ``n_points``
+    gives each design's length.
+    """
+    import xarray as xr
+
+    n = len(records)
+    data: dict[str, Any] = {
+        "status": ("design", _strings([str(r.get("status", "ok")) for r in records])),
+        "error": ("design", _strings([str(r.get("error", "")) for r in records])),
+    }
+    if "characteristic" in outputs:
+        for v in SCALAR_VARS:
+            data[v] = ("design", np.array([float(r.get(v, np.nan)) for r in records]))
+        data["critical_kind"] = ("design", _strings([str(r.get("critical_kind", ""))
+                                                     for r in records]))
+    if "curves" in outputs:
+        lens = [len(r["pressure"]) if "pressure" in r else 0 for r in records]
+        m = max([*lens, 1])
+        for v in CURVE_VARS:
+            fill: Any = False if v == "stable" else np.nan
+            arr = np.full((n, m), fill, dtype=bool if v == "stable" else float)
+            for i, r in enumerate(records):
+                if lens[i]:
+                    arr[i, :lens[i]] = np.asarray(r[v])
+            data[f"curve_{v}"] = (("design", "point"), arr)
+        data["n_points"] = ("design", np.asarray(lens, dtype=np.int64))
+    return xr.Dataset(data, coords={"design": np.asarray(indices, dtype=np.int64)})
+
+
+def design_dataset(spec: SweepSpec, table: DesignTable) -> Any:
+    """The design table as an xarray Dataset: parameters, lengths (m), ratios, moduli (Pa)."""
+    import xarray as xr
+
+    n = len(table)
+    reasons = {p.index: p.reason for p in table.invalid}
+    data: dict[str, Any] = {}
+    for j, name in enumerate(table.names):
+        data[param_var(name)] = ("design", table.values[:, j].astype(float),
+                                 {"unit": table.units[j], "parameter": name})
+    for key in CELL_KEYS:
+        data[key] = ("design", np.array([c.__getattribute__(key) if c else np.nan
+                                         for c in table.cells]), {"unit": "m"})
+    for r in ("ws/d", "df/d", "ht/d", "hb/d", "w/d", "h/d"):
+        data[safe_name(r)] = ("design", np.array([c.ratios()[r] if c else np.nan
+                                                  for c in table.cells]),
+                              {"unit": "1", "long_name": r})
+    data["mu"] = ("design", np.array([c.mu if c else np.nan for c in table.cells]),
+                  {"unit": "Pa", "long_name": "wall shear modulus"})
+    data["mu_b"] = ("design", np.array([c.bottom_material.shear_modulus
+                                        if c and c.bottom_material else np.nan
+                                        for c in table.cells]),
+                    {"unit": "Pa", "long_name": "bottom-wall shear modulus"})
+    data["valid"] = ("design", np.array([c is not None for c in table.cells]))
+    data["invalid_reason"] = ("design", _strings([reasons.get(i, "") for i in range(n)]))
+    return xr.Dataset(data, coords={"design": np.arange(n, dtype=np.int64)},
+                      attrs={"spec_hash": spec.spec_hash})
+
+
+def _atomic_zarr(ds: Any, final: Path) -> None:
+    tmp = final.parent / f".tmp-{final.name}-{uuid.uuid4().hex[:8]}"
+    ds.to_zarr(tmp, mode="w", zarr_format=3, consolidated=False)
+    os.rename(tmp, final)
+
+
+class SweepStore:
+    """The out folder of one sweep (see the module docstring for the layout).
+
+    Parameters
+    ----------
+    path : path
+        Out folder; created if missing.
+    spec : SweepSpec
+    table : DesignTable
+    spec_text : str, optional
+        The spec file's text, kept as ``spec.toml``.
+    """
+
+    def __init__(self, path: str | os.PathLike[str], spec: SweepSpec, table: DesignTable,
+                 spec_text: str | None = None) -> None:
+        self.path = Path(path)
+        self.spec = spec
+        self.table = table
+        self.spec_text = spec_text
+        self.parts = self.path / "parts"
+
+    # ---------------------------------------------------------------- lifecycle
+    @contextmanager
+    def locked(self) -> Iterator[None]:
+        """Hold an exclusive lock on the folder (released even if the process is killed)."""
+        self.path.mkdir(parents=True, exist_ok=True)
+        with open(self.path / ".lock", "w") as fh:
+            try:
+                fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                raise MultimorphError(f"{self.path}: another sweep is writing to this folder "
+                                      "right now") from None
+            try:
+                yield
+            finally:
+                fcntl.flock(fh, fcntl.LOCK_UN)
+
+    def manifest(self) -> dict[str, Any]:
+        spec, table = self.spec, self.table
+        return {
+            "format": FORMAT,
+            "spec_hash": spec.spec_hash,
+            "spec": spec.raw,
+            "versions": _versions(),
+            "backend": spec.backend,
+            "outputs": list(spec.outputs),
+            "pmax": spec.pmax,
+            "combine": spec.combine,
+            "parameters": [q.to_dict() for q in spec.parameters],
+            "n_designs": len(table),
+            "n_valid": len(table) - len(table.invalid),
+            "invalid": [p.to_dict() for p in table.invalid],
+        }
+
+    def prepare(self) -> None:
+        """Create the folder (manifest, spec, design table) or check it holds this sweep.
+
+        Raises
+        ------
+        SpecError
+            The folder holds results of a different spec (hash mismatch) or something else.
+        """
+        self.path.mkdir(parents=True, exist_ok=True)
+        man = self.path / "sweep.json"
+        if man.exists():
+            try:
+                old = json.loads(man.read_text())
+            except (OSError, json.JSONDecodeError) as exc:
+                raise SpecError(f"{man}: unreadable sweep manifest ({exc})") from None
+            if old.get("spec_hash") != self.spec.spec_hash:
+                raise SpecError(
+                    f"{self.path} holds results of a different sweep spec (hash "
+                    f"{str(old.get('spec_hash'))[:12]}, this spec {self.spec.spec_hash[:12]}); "
+                    "use another --out folder or delete that one")
+        else:
+            others = [p.name for p in self.path.iterdir() if not p.name.startswith(".")]
+            if others:
+                raise SpecError(f"{self.path}: not a sweep folder and not empty "
+                                f"({', '.join(sorted(others)[:5])}); choose another --out")
+        self.parts.mkdir(exist_ok=True)
+        for tmp in list(self.parts.glob(".tmp-*")) + list(self.path.glob(".tmp-*")):
+            shutil.rmtree(tmp, ignore_errors=True)  # leftovers of a killed run
+        if not (self.path / "designs.zarr").exists():
+            _atomic_zarr(design_dataset(self.spec, self.table), self.path / "designs.zarr")
+        if self.spec_text is not None and not (self.path / "spec.toml").exists():
+            (self.path / "spec.toml").write_text(self.spec_text)
+        if not man.exists():
+            tmp = self.path / ".tmp-sweep.json"
+            write_json(tmp, self.manifest())
+            os.replace(tmp, man)
+
+    # ---------------------------------------------------------------- parts
+    def part_paths(self) -> list[Path]:
+        return sorted(p for p in self.parts.glob("part-*.zarr") if p.is_dir())
+
+    def finished(self) -> np.ndarray:
+        """Design indices with a stored result (ok or failed), ascending, unique."""
+        import zarr
+
+        idx = [np.asarray(zarr.open_group(str(p), mode="r")["design"][:], dtype=np.int64)
+               for p in self.part_paths()]
+        return np.unique(np.concatenate(idx)) if idx else np.zeros(0, np.int64)
+
+    def write_part(self, indices: Sequence[int], records: Sequence[Mapping[str, Any]]) -> Path:
+        """Store one finished batch atomically; returns the part's path."""
+        ds = records_to_dataset(indices, records, self.spec.outputs)
+        final = self.parts / f"part-{int(min(indices)):08d}-{uuid.uuid4().hex[:8]}.zarr"
+        _atomic_zarr(ds, final)
+        return final
+
+    # ---------------------------------------------------------------- merge
+    def consolidate(self) -> Path:
+        """Merge parts and the design table into ``results.zarr`` (exactly one row per design).
+
+        Designs never evaluated have status ``"invalid"`` (with the reason) or ``"pending"``.
+        If a design appears in several parts (only possible after manual copying), the first
+        part in name order wins.
+        """
+        import xarray as xr
+
+        designs = xr.open_zarr(self.path / "designs.zarr", consolidated=False).load()
+        n = designs.sizes["design"]
+        seen = np.zeros(n, bool)
+        cols: dict[str, np.ndarray] = {}
+        dims: dict[str, tuple[str, ...]] = {}
+        for p in self.part_paths():
+            ds = xr.open_zarr(p, consolidated=False).load()
+            idx = ds["design"].values
+            keep = ~seen[idx]
+            seen[idx] = True
+            idx = idx[keep]
+            for name, var in ds.data_vars.items():
+                vals = np.asarray(var.values)[keep]
+                if vals.dtype.kind in "OUT":  # strings (StringDType when read back)
+                    vals = vals.astype(object)
+                if name not in cols:
+                    dims[name] = var.dims
+                    shape = (n, *vals.shape[1:])
+                    if vals.dtype == object:
+                        cols[name] = np.full(shape, "", dtype=object)
+                    elif vals.dtype == bool:
+                        cols[name] = np.zeros(shape, bool)
+                    elif vals.dtype.kind in "iu":
+                        cols[name] = np.zeros(shape, vals.dtype)
+                    else:
+                        cols[name] = np.full(shape, np.nan)
+                col = cols[name]
+                if col.ndim == 2 and vals.shape[1] > col.shape[1]:  # longer curves: widen
+                    fill = False if col.dtype == bool else np.nan
+                    wider = np.full((n, vals.shape[1]), fill, dtype=col.dtype)
+                    wider[:, :col.shape[1]] = col
+                    cols[name] = col = wider
+                if col.ndim == 2:
+                    col[idx, :vals.shape[1]] = vals
+                else:
+                    col[idx] = vals
+        status = cols.get("status", np.full(n, "", dtype=object))
+        error = cols.get("error", np.full(n, "", dtype=object))
+        valid = designs["valid"].values
+        reasons = designs["invalid_reason"].values
+        for i in np.flatnonzero(~seen):
+            status[i] = "pending" if valid[i] else "invalid"
+            error[i] = "" if valid[i] else str(reasons[i])
+        cols["status"], cols["error"] = status, error
+        dims.setdefault("status", ("design",))
+        dims.setdefault("error", ("design",))
+        res = xr.Dataset({k: (dims[k], v) for k, v in cols.items()},
+                         coords={"design": np.arange(n, dtype=np.int64)})
+        out = xr.merge([designs.drop_vars("invalid_reason"), res], compat="override",
+                       join="left")
+        man = self.manifest()
+        out.attrs = {"format": FORMAT, "spec_hash": self.spec.spec_hash,
+                     "spec": json.dumps(man["spec"]), "versions": json.dumps(man["versions"]),
+                     "backend": self.spec.backend, "pmax": self.spec.pmax,
+                     "parameters": json.dumps([q.name for q in self.spec.parameters]),
+                     "outputs": json.dumps(list(self.spec.outputs))}
+        final = self.path / "results.zarr"
+        tmp = self.path / f".tmp-results-{uuid.uuid4().hex[:8]}.zarr"
+        out.to_zarr(tmp, mode="w", zarr_format=3, consolidated=False)
+        if final.exists():
+            old = self.path / f".tmp-old-results-{uuid.uuid4().hex[:8]}"
+            os.rename(final, old)
+            os.rename(tmp, final)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.rename(tmp, final)
+        return final
+
+
+def open_results(path: str | os.PathLike[str]) -> Any:
+    """Open a sweep's results as an xarray Dataset (a sweep folder or its ``results.zarr``).
+
+    Raises
+    ------
+    MultimorphError
+        No results there (the message says whether the sweep is unfinished).
+    """
+    import xarray as xr
+
+    p = Path(path)
+    if (p / "results.zarr").is_dir():
+        p = p / "results.zarr"
+    if not (p.is_dir() and ((p / "zarr.json").exists() or (p / ".zgroup").exists())):
+        hint = " (the sweep has not finished: rerun it to resume)" if (
+            p / "sweep.json").exists() else ""
+        raise MultimorphError(f"{path}: no sweep results found{hint}")
+    return xr.open_zarr(p, consolidated=False).load()
