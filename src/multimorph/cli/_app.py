@@ -18,6 +18,12 @@ def _register() -> None:
     from multimorph.cli import _material
 
     _material.register(app)
+    from multimorph.cli import _sweep
+
+    _sweep.register(app)
+    from multimorph.cli import _plot
+
+    _plot.register(app)
 
 
 def main() -> None:

@@ -1,0 +1,77 @@
+"""``multimorph sweep``: run (or resume) a parameter sweep on Dask."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from multimorph.cli._common import console, emit_json, err_console, handle_errors
+
+__all__ = ["register", "sweep"]
+
+
+def sweep(
+    spec: Annotated[Path, typer.Argument(help="Sweep spec (TOML): [cell] and [sweep].")],
+    out: Annotated[Path | None, typer.Option(
+        "--out", "-o", help="Sweep folder (default multimorph-out/<spec name>). Rerunning into "
+        "the same folder resumes.")] = None,
+    scheduler: Annotated[str | None, typer.Option(
+        help="'local' (LocalCluster of worker processes, default), 'threads', 'sync', or a "
+        "scheduler address such as tcp://host:8786.")] = None,
+    workers: Annotated[int | None, typer.Option(
+        min=1, help="Worker processes (local) or threads (threads); default: CPU count.")] = None,
+    batch_size: Annotated[int | None, typer.Option(
+        min=1, help="Designs per task (default: 256 for rom, 1 for fe).")] = None,
+    retries: Annotated[int, typer.Option(min=0, help="Retries of a failed task.")] = 2,
+    as_json: Annotated[bool, typer.Option("--json", help="Print a JSON summary.")] = False,
+) -> None:
+    """Run a parameter sweep and store the results (Zarr) in a resumable folder.
+
+    Example: multimorph sweep examples/sweep_ht.toml --out out/ht --workers 2
+    """
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+
+    from multimorph.sweep import run_sweep
+
+    with handle_errors(as_json):
+        folder = out if out is not None else Path("multimorph-out") / spec.stem
+        with Progress(TextColumn("sweep"), BarColumn(), MofNCompleteColumn(),
+                      TextColumn("designs"), TimeElapsedColumn(), TimeRemainingColumn(),
+                      console=err_console, transient=as_json) as bar:
+            task = bar.add_task("sweep", total=None)
+
+            def progress(done: int, total: int) -> None:
+                bar.update(task, completed=done, total=total)
+
+            summary = run_sweep(spec, folder, scheduler=scheduler, workers=workers,
+                                batch_size=batch_size, retries=retries, progress=progress)
+        if as_json:
+            emit_json(summary.to_dict())
+            return
+        console.print(f"[bold]{summary.n_designs}[/] designs: {summary.n_ok} ok, "
+                      f"{summary.n_failed} failed, {summary.n_invalid} invalid "
+                      f"({summary.n_resumed} already done, {summary.n_run} run now) in "
+                      f"{summary.elapsed:.1f} s")
+        for p in summary.invalid[:10]:
+            console.print(f"  invalid design {p['index']} {p['values']}: {p['reason']}",
+                          highlight=False)
+        if len(summary.invalid) > 10:
+            console.print(f"  … {len(summary.invalid) - 10} more invalid (see sweep.json)")
+        for p in summary.failed[:10]:
+            console.print(f"  failed design {p['index']}: {p['error']}", highlight=False)
+        if len(summary.failed) > 10:
+            console.print(f"  … {len(summary.failed) - 10} more failed (see results.zarr)")
+        console.print(f"results: {summary.results}")
+
+
+def register(app: typer.Typer) -> None:
+    app.command("sweep")(sweep)
