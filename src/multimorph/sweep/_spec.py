@@ -185,7 +185,8 @@ class SweepSpec:
         """
         lengths = {k: getattr(self.base, k) for k in CELL_KEYS}
         mats = {"material": self.base.material, "bottom_material": self.base.bottom_material}
-        for q in sorted(self.parameters, key=lambda q: _KIND_ORDER[q.kind]):
+        for q in sorted(self.parameters,
+                        key=lambda q: (_KIND_ORDER[q.kind], q.target == "mu_b/mu")):
             v = float(values[q.name])
             if q.kind == "length":
                 lengths[q.target] = v
