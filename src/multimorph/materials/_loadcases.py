@@ -200,15 +200,18 @@ def drucker_stability(
         ok = True
         for lam in (lam_c, lam_t):
             frac = material.lockup_fraction(*stretches(case, lam))
-            lam_ok = lam[frac < 0.999]
-            if lam_ok.size == 0:
+            valid = frac < 0.999
+            if not valid.any():
                 out.append(None)
                 continue
-            eig = np.asarray(_drucker_eigs(material.model, case)(material.params_1972, lam_ok))
-            bad = np.flatnonzero(~(eig > 0))
+            # evaluate on a fixed-size array (points past lock-up replaced by λ = 1 and
+            # ignored) so the jitted kernel is not re-traced for every Jm
+            lam_eval = np.where(valid, lam, 1.0)
+            eig = np.asarray(_drucker_eigs(material.model, case)(material.params_1972, lam_eval))
+            bad = np.flatnonzero(valid & ~(eig > 0))
             if bad.size:
                 ok = False
-                out.append(float(lam_ok[bad[0]]))
+                out.append(float(lam[bad[0]]))
             else:
                 out.append(None)
         stable[case] = ok
