@@ -178,7 +178,7 @@ def test_malformed_specs_are_rejected_with_precise_messages(extra: str, message:
 def test_missing_tables_and_pmax() -> None:
     raw = spec('[sweep.parameters]\n"ht/d" = [0.1]\n')
     del raw["sweep"]["pmax"]
-    with pytest.raises(SpecError, match="sweep.pmax: missing"):
+    with pytest.raises(SpecError, match=r"sweep\.pmax: missing"):
         parse_sweep_spec(raw)
     with pytest.raises(SpecError, match=r"missing the base design table \[cell\]"):
         parse_sweep_spec({"sweep": {}})
