@@ -18,6 +18,9 @@ def _register() -> None:
     from multimorph.cli import _material
 
     _material.register(app)
+    from multimorph.cli import _demo
+
+    _demo.register(app)
     from multimorph.cli import _sweep
 
     _sweep.register(app)

@@ -1,0 +1,109 @@
+"""``multimorph demo``: the end-to-end demonstration (for now: the materials room).
+
+Fits Gent and Yeoh to every built-in silicone from the shipped Marechal et al. (2021) data
+over the design range λ ≤ 4 and writes a fit report (Markdown + JSON) and plots.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from multimorph.cli._common import console, emit_json, err_console, handle_errors
+
+__all__ = ["demo", "register"]
+
+
+def _materials_section(folder: Path, progress: Any) -> dict[str, Any]:
+    from multimorph.materials.build_library import MARECHAL, STRETCH_MAX, fit_marechal
+    from multimorph.viz._fitplot import plot_fit_grid
+
+    rows: list[dict[str, Any]] = []
+    grid = []
+    stems = sorted(MARECHAL)
+    task = progress.add_task("fitting silicones", total=len(stems))
+    for stem in stems:
+        name, title, _ = MARECHAL[stem]
+        data, fits = fit_marechal(stem, ("gent", "yeoh"), STRETCH_MAX)
+        g, y = fits.get("gent"), fits.get("yeoh")
+        rows.append({
+            "name": name, "title": title,
+            "gent": None if g is None else {"mu": g.params["mu"], "jm": g.params["jm"],
+                                            "relative_rms": g.relative_rms,
+                                            "status": g.status},
+            "yeoh": None if y is None else {**y.params, "relative_rms": y.relative_rms,
+                                            "status": y.status},
+            "break_stretch": data.break_stretch,
+            "n_points": None if g is None else g.n_points,
+        })
+        if fits:
+            grid.append((title, list(fits.values()), data.curves[0]))
+        progress.advance(task)
+    plot_fit_grid(grid, folder / "silicone_fits.png")
+    return {"stretch_max": STRETCH_MAX, "residual": "relative", "materials": rows,
+            "figure": "silicone_fits.png"}
+
+
+def _markdown(section: dict[str, Any]) -> str:
+    def k(x: float | None) -> str:
+        return "-" if x is None or not math.isfinite(x) else f"{x / 1e3:.1f}"
+
+    lines = [
+        "# multimorph demo report",
+        "",
+        "## Materials: built-in silicones",
+        "",
+        f"Gent and Yeoh fits to the uniaxial data of Marechal et al. (2021, "
+        f"doi:10.1089/soro.2019.0115, ODbL 1.0) over λ ≤ {section['stretch_max']:g}, "
+        "relative residuals on nominal stress. μ: small-strain shear modulus. "
+        "Crosshead strain: the softest grades look about 2x softer than their datasheets.",
+        "",
+        "| material | Gent μ (kPa) | Gent Jm | Gent rel. RMS | Yeoh C10 (kPa) | Yeoh C20 (kPa) "
+        "| Yeoh C30 (kPa) | Yeoh rel. RMS | λ at break |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for r in section["materials"]:
+        g, y = r["gent"] or {}, r["yeoh"] or {}
+        lines.append(
+            f"| {r['name']} | {k(g.get('mu'))} | {g.get('jm', math.nan):.1f} | "
+            f"{100 * g.get('relative_rms', math.nan):.1f} % | {k(y.get('c10'))} | "
+            f"{k(y.get('c20'))} | {k(y.get('c30'))} | "
+            f"{100 * y.get('relative_rms', math.nan):.1f} % | "
+            f"{r['break_stretch']:.2f} |")
+    lines += ["", f"![fits]({section['figure']})", ""]
+    return "\n".join(lines)
+
+
+def demo(
+    out: Annotated[Path, typer.Option("--out", "-o", help="Output folder.")
+                   ] = Path("multimorph-out/demo"),
+    as_json: Annotated[bool, typer.Option("--json", help="Print the report as JSON.")] = False,
+) -> None:
+    """Run the demonstration and write a report (Markdown, JSON, PNG) to a folder.
+
+    Example: multimorph demo --out multimorph-out/demo
+    """
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
+
+    from multimorph.io import atomic_output_dir, write_json
+
+    with handle_errors(as_json):
+        with atomic_output_dir(out) as tmp, Progress(
+                TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
+                console=err_console, transient=True) as progress:
+            report = {"materials": _materials_section(tmp, progress)}
+            write_json(tmp / "report.json", report)
+            (tmp / "report.md").write_text(_markdown(report["materials"]), encoding="utf-8")
+        if as_json:
+            emit_json({**report, "out": str(out)})
+            return
+        console.print(_markdown(report["materials"]).split("![fits]")[0], markup=False,
+                      highlight=False)
+        console.print(f"wrote {out}/report.md, report.json, silicone_fits.png")
+
+
+def register(app: typer.Typer) -> None:
+    app.command("demo")(demo)
