@@ -13,6 +13,7 @@ Neo-Hookean limit (Jm → ∞): maximum at λ = 7^(1/6), P R/(μ H) = 12/(7·7^(
 from __future__ import annotations
 
 import math
+import os
 import time
 from collections.abc import Mapping, Sequence
 from typing import Any
@@ -33,7 +34,8 @@ def sphere_pressure(lam: np.ndarray, mu: float, jm: float, h_over_r: float) -> n
 
 class SphereBackend:
     """Thin-sphere stand-in model (test only). Options: ``fail_top_wall_above`` (m): designs
-    with a thicker top wall raise; ``delay`` (s): sleep per batch; ``n_points``."""
+    with a thicker top wall raise (only while the file ``fail_while_exists`` exists, if
+    given); ``delay`` (s): sleep per batch; ``n_points``."""
 
     name = "sphere"
     batch_size = 4
@@ -42,6 +44,9 @@ class SphereBackend:
                        outputs: Sequence[str], options: Mapping[str, Any]) -> list[Any]:
         time.sleep(float(options.get("delay", 0.0)))
         limit = options.get("fail_top_wall_above")
+        flag = options.get("fail_while_exists")
+        if flag is not None and not os.path.exists(flag):
+            limit = None
         if limit is not None and any(d.top_wall > limit for d in designs):
             raise ValueError("synthetic failure (batch)")
         return [self._one(d, pmax, int(options.get("n_points", 60))) for d in designs]

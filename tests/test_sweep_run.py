@@ -127,6 +127,23 @@ def test_failing_design_is_recorded_not_fatal(tmp_path: Path) -> None:
     assert np.isfinite(ds["critical_pressure"].values[ok]).all()
 
 
+def test_retry_failed_reruns_only_failures_and_success_supersedes(tmp_path: Path) -> None:
+    flag = tmp_path / "flaky"
+    flag.write_text("")
+    spec = write_spec(tmp_path, extra=f"[sweep.options]\nfail_top_wall_above = 1.3e-3\n"
+                                      f"fail_while_exists = {str(flag)!r}")
+    out = tmp_path / "out"
+    first = run_sweep(spec, out, scheduler="sync", batch_size=4)
+    assert first.n_failed > 0
+    flag.unlink()  # the cause of the failures is gone
+    assert run_sweep(spec, out, scheduler="sync", batch_size=4).n_run == 0  # kept by default
+    again = run_sweep(spec, out, scheduler="sync", batch_size=4, retry_failed=True)
+    assert (again.n_run, again.n_failed, again.n_ok) == (first.n_failed, 0, 8)
+    ds = open_results(out)
+    assert ds.sizes["design"] == 12 and (ds["status"].values == "ok").sum() == 8
+    assert np.isfinite(ds["critical_pressure"].values[ds["status"].values == "ok"]).all()
+
+
 def test_rerun_resumes_and_a_different_spec_is_refused(tmp_path: Path) -> None:
     spec = write_spec(tmp_path)
     out = tmp_path / "out"

@@ -25,6 +25,9 @@ def sweep(
     batch_size: Annotated[int | None, typer.Option(
         min=1, help="Designs per task (default: 256 for rom, 1 for fe).")] = None,
     retries: Annotated[int, typer.Option(min=0, help="Retries of a failed task.")] = 2,
+    retry_failed: Annotated[bool, typer.Option(
+        "--retry-failed", help="On resume, evaluate designs that failed before again.")
+                            ] = False,
     as_json: Annotated[bool, typer.Option("--json", help="Print a JSON summary.")] = False,
 ) -> None:
     """Run a parameter sweep and store the results (Zarr) in a resumable folder.
@@ -53,7 +56,8 @@ def sweep(
                 bar.update(task, completed=done, total=total)
 
             summary = run_sweep(spec, folder, scheduler=scheduler, workers=workers,
-                                batch_size=batch_size, retries=retries, progress=progress)
+                                batch_size=batch_size, retries=retries, progress=progress,
+                                retry_failed=retry_failed)
         if as_json:
             emit_json(summary.to_dict())
             return

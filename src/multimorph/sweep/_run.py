@@ -160,7 +160,7 @@ def run_sweep(spec: SweepSpec | str | os.PathLike[str], out: str | os.PathLike[s
               scheduler: str | None = None, workers: int | None = None,
               batch_size: int | None = None, retries: int = 2, client: Any = None,
               backend: SweepBackend | None = None, progress: ProgressFn | None = None,
-              ) -> SweepSummary:
+              retry_failed: bool = False) -> SweepSummary:
     """Run (or resume) a sweep into the folder ``out``.
 
     Parameters
@@ -185,6 +185,8 @@ def run_sweep(spec: SweepSpec | str | os.PathLike[str], out: str | os.PathLike[s
         Use this backend object instead of looking up ``spec.backend``.
     progress : callable, optional
         ``progress(done, total)`` after each batch (designs of this run).
+    retry_failed : bool
+        Evaluate designs that failed in an earlier run again (default: keep their failure).
 
     Returns
     -------
@@ -204,7 +206,7 @@ def run_sweep(spec: SweepSpec | str | os.PathLike[str], out: str | os.PathLike[s
     label = "client" if client is not None else (scheduler or "local")
     with store.locked():
         store.prepare()
-        done = store.finished()
+        done = store.finished(include_failed=not retry_failed)
         batches = plan_batches(table.valid_indices, done, bs)
         total = int(sum(b.size for b in batches))
         jobs = [(be, b, [table.cells[i] for i in b], spec.pmax, spec.outputs, spec.options)

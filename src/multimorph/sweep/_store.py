@@ -235,12 +235,21 @@ class SweepStore:
     def part_paths(self) -> list[Path]:
         return sorted(p for p in self.parts.glob("part-*.zarr") if p.is_dir())
 
-    def finished(self) -> np.ndarray:
-        """Design indices with a stored result (ok or failed), ascending, unique."""
+    def finished(self, *, include_failed: bool = True) -> np.ndarray:
+        """Design indices with a stored result, ascending, unique.
+
+        With ``include_failed=False`` only successful designs count (failed ones are run
+        again, and the new result supersedes the failure).
+        """
         import zarr
 
-        idx = [np.asarray(zarr.open_group(str(p), mode="r")["design"][:], dtype=np.int64)
-               for p in self.part_paths()]
+        idx = []
+        for p in self.part_paths():
+            g = zarr.open_group(str(p), mode="r")
+            i = np.asarray(g["design"][:], dtype=np.int64)
+            if not include_failed:
+                i = i[np.asarray(g["status"][:]).astype(object) == "ok"]
+            idx.append(i)
         return np.unique(np.concatenate(idx)) if idx else np.zeros(0, np.int64)
 
     def write_part(self, indices: Sequence[int], records: Sequence[Mapping[str, Any]]) -> Path:
@@ -255,21 +264,25 @@ class SweepStore:
         """Merge parts and the design table into ``results.zarr`` (exactly one row per design).
 
         Designs never evaluated have status ``"invalid"`` (with the reason) or ``"pending"``.
-        If a design appears in several parts (only possible after manual copying), the first
-        part in name order wins.
+        If a design appears in several parts (a failure rerun with ``retry_failed``), a
+        success supersedes a failure; otherwise the first part in name order wins.
         """
         import xarray as xr
 
         designs = xr.open_zarr(self.path / "designs.zarr", consolidated=False).load()
         n = designs.sizes["design"]
         seen = np.zeros(n, bool)
+        failed_before = np.zeros(n, bool)
         cols: dict[str, np.ndarray] = {}
         dims: dict[str, tuple[str, ...]] = {}
         for p in self.part_paths():
             ds = xr.open_zarr(p, consolidated=False).load()
             idx = ds["design"].values
-            keep = ~seen[idx]
+            # first result wins, except that a success supersedes an earlier failure
+            ok_here = ds["status"].values.astype(object) == "ok"
+            keep = ~seen[idx] | (failed_before[idx] & ok_here)
             seen[idx] = True
+            failed_before[idx[keep]] = ~ok_here[keep]
             idx = idx[keep]
             for name, var in ds.data_vars.items():
                 vals = np.asarray(var.values)[keep]
