@@ -116,11 +116,11 @@ def design_dataset(spec: SweepSpec, table: DesignTable) -> Any:
         data[param_var(name)] = ("design", table.values[:, j].astype(float),
                                  {"unit": table.units[j], "parameter": name})
     for key in CELL_KEYS:
-        data[key] = ("design", np.array([c.__getattribute__(key) if c else np.nan
+        data[key] = ("design", np.array([getattr(c, key) if c else np.nan
                                          for c in table.cells]), {"unit": "m"})
+    ratios = [c.ratios() if c else {} for c in table.cells]
     for r in ("ws/d", "df/d", "ht/d", "hb/d", "w/d", "h/d"):
-        data[safe_name(r)] = ("design", np.array([c.ratios()[r] if c else np.nan
-                                                  for c in table.cells]),
+        data[safe_name(r)] = ("design", np.array([q.get(r, np.nan) for q in ratios]),
                               {"unit": "1", "long_name": r})
     data["mu"] = ("design", np.array([c.mu if c else np.nan for c in table.cells]),
                   {"unit": "Pa", "long_name": "wall shear modulus"})
