@@ -101,10 +101,21 @@ def plan_batches(valid: np.ndarray, done: np.ndarray, batch_size: int) -> list[n
     return out
 
 
-def _task(backend: SweepBackend, indices: np.ndarray, designs: Sequence[CellGeometry],
-          pmax: float, outputs: Sequence[str], options: Mapping[str, Any],
-          ) -> tuple[np.ndarray, list[dict[str, Any]]]:
-    return indices, evaluate_designs(backend, designs, pmax, outputs, options)
+class _Job:
+    """One task's arguments in an opaque box, so Dask does not traverse the design list."""
+
+    __slots__ = ("backend", "designs", "indices", "options", "outputs", "pmax")
+
+    def __init__(self, backend: SweepBackend, indices: np.ndarray,
+                 designs: Sequence[CellGeometry], pmax: float, outputs: Sequence[str],
+                 options: Mapping[str, Any]) -> None:
+        self.backend, self.indices, self.designs = backend, indices, list(designs)
+        self.pmax, self.outputs, self.options = pmax, tuple(outputs), dict(options)
+
+
+def _task(job: _Job) -> tuple[np.ndarray, list[dict[str, Any]]]:
+    return job.indices, evaluate_designs(job.backend, job.designs, job.pmax, job.outputs,
+                                         job.options)
 
 
 def _failed_batch(indices: np.ndarray, exc: BaseException) -> tuple[np.ndarray,
@@ -113,17 +124,17 @@ def _failed_batch(indices: np.ndarray, exc: BaseException) -> tuple[np.ndarray,
     return indices, [{"status": "failed", "error": msg} for _ in indices]
 
 
-def _run_local(jobs: list[tuple[Any, ...]], scheduler: str, workers: int | None,
+def _run_local(jobs: list[_Job], scheduler: str, workers: int | None,
                write: Callable[[tuple[np.ndarray, list[dict[str, Any]]]], None]) -> None:
     import dask
     from dask.callbacks import Callback
 
     keys = {}
     tasks = []
-    for k, args in enumerate(jobs):
+    for k, job in enumerate(jobs):
         key = f"multimorph-sweep-batch-{k}"
         keys[key] = k
-        tasks.append(dask.delayed(_task, pure=False)(*args, dask_key_name=key))
+        tasks.append(dask.delayed(_task, pure=False)(job, dask_key_name=key))
 
     def posttask(key: Any, result: Any, dsk: Any, state: Any, worker_id: Any) -> None:
         if key in keys:
@@ -136,16 +147,16 @@ def _run_local(jobs: list[tuple[Any, ...]], scheduler: str, workers: int | None,
         dask.compute(*tasks, **kw)
 
 
-def _run_distributed(jobs: list[tuple[Any, ...]], client: Any, retries: int,
+def _run_distributed(jobs: list[_Job], client: Any, retries: int,
                      write: Callable[[tuple[np.ndarray, list[dict[str, Any]]]], None]) -> None:
     from distributed import as_completed
 
     futs = []
     indices = {}
-    for args in jobs:
-        fut = client.submit(_task, *args, retries=retries, pure=False)
+    for job in jobs:
+        fut = client.submit(_task, job, retries=retries, pure=False)
         futs.append(fut)
-        indices[fut.key] = args[1]
+        indices[fut.key] = job.indices
     del jobs
     for fut in as_completed(futs):
         try:
@@ -209,7 +220,7 @@ def run_sweep(spec: SweepSpec | str | os.PathLike[str], out: str | os.PathLike[s
         done = store.finished(include_failed=not retry_failed)
         batches = plan_batches(table.valid_indices, done, bs)
         total = int(sum(b.size for b in batches))
-        jobs = [(be, b, [table.cells[i] for i in b], spec.pmax, spec.outputs, spec.options)
+        jobs = [_Job(be, b, [table.cells[i] for i in b], spec.pmax, spec.outputs, spec.options)
                 for b in batches]
         count = [0]
 

@@ -6,7 +6,7 @@ Layout of ``OUT/``::
                         counts, invalid points with their reasons
     spec.toml           the spec file as given (when run from a file)
     designs.zarr        the design table: every design (valid or not) and its parameters
-    parts/part-*.zarr   results, one Zarr group per finished batch (xarray, dim ``design``)
+    parts/part-*.zarr   results, one compact Zarr group per finished batch
     results.zarr        all designs merged (written when the sweep completes)
     .lock               held (flock) while a sweep writes here
 
@@ -72,37 +72,71 @@ def _strings(values: Sequence[str]) -> np.ndarray:
     return arr
 
 
-def records_to_dataset(indices: Sequence[int], records: Sequence[Mapping[str, Any]],
-                       outputs: Sequence[str]) -> Any:
-    """An xarray Dataset (dims ``design``, ``point``) of one batch of records.
+PART_FORMAT = "multimorph-sweep-part/1"
+_CURVE_FLOATS = tuple(v for v in CURVE_VARS if v != "stable")
 
-    Curves of different lengths are padded with NaN (``stable`` with False); ``n_points``
-    gives each design's length.
+
+def write_part_group(path: Path, indices: Sequence[int], records: Sequence[Mapping[str, Any]],
+                     outputs: Sequence[str]) -> None:
+    """Write one batch of records as a compact Zarr group (few arrays: fast to write).
+
+    Arrays: ``design`` (n,), ``scalars`` (n, 6) of :data:`SCALAR_VARS`, ``curves``
+    (n, m, 3) of pressure, curvature, peak stretch padded with NaN, ``curve_stable`` (n, m),
+    ``n_points`` (n,); strings (status, error, critical kind) in the group attributes.
     """
-    import xarray as xr
+    import zarr
 
     n = len(records)
-    data: dict[str, Any] = {
-        "status": ("design", _strings([str(r.get("status", "ok")) for r in records])),
-        "error": ("design", _strings([str(r.get("error", "")) for r in records])),
+    g = zarr.open_group(str(path), mode="w", zarr_format=3)
+    attrs: dict[str, Any] = {
+        "format": PART_FORMAT,
+        "status": [str(r.get("status", "ok")) for r in records],
+        "error": [str(r.get("error", "")) for r in records],
     }
+    g.create_array("design", data=np.asarray(indices, dtype=np.int64))
     if "characteristic" in outputs:
-        for v in SCALAR_VARS:
-            data[v] = ("design", np.array([float(r.get(v, np.nan)) for r in records]))
-        data["critical_kind"] = ("design", _strings([str(r.get("critical_kind", ""))
-                                                     for r in records]))
+        sc = np.array([[float(r.get(v, np.nan)) for v in SCALAR_VARS] for r in records],
+                      dtype=float).reshape(n, len(SCALAR_VARS))
+        g.create_array("scalars", data=sc)
+        attrs["critical_kind"] = [str(r.get("critical_kind", "")) for r in records]
     if "curves" in outputs:
         lens = [len(r["pressure"]) if "pressure" in r else 0 for r in records]
         m = max([*lens, 1])
-        for v in CURVE_VARS:
-            fill: Any = False if v == "stable" else np.nan
-            arr = np.full((n, m), fill, dtype=bool if v == "stable" else float)
-            for i, r in enumerate(records):
-                if lens[i]:
-                    arr[i, :lens[i]] = np.asarray(r[v])
-            data[f"curve_{v}"] = (("design", "point"), arr)
-        data["n_points"] = ("design", np.asarray(lens, dtype=np.int64))
-    return xr.Dataset(data, coords={"design": np.asarray(indices, dtype=np.int64)})
+        cur = np.full((n, m, len(_CURVE_FLOATS)), np.nan)
+        stable = np.zeros((n, m), bool)
+        for i, r in enumerate(records):
+            if lens[i]:
+                for j, v in enumerate(_CURVE_FLOATS):
+                    cur[i, :lens[i], j] = np.asarray(r[v], float)
+                stable[i, :lens[i]] = np.asarray(r["stable"], bool)
+        g.create_array("curves", data=cur)
+        g.create_array("curve_stable", data=stable)
+        g.create_array("n_points", data=np.asarray(lens, dtype=np.int64))
+    g.attrs.update(attrs)
+
+
+def read_part_group(path: Path) -> dict[str, np.ndarray]:
+    """Columns of one part: ``design``, ``status``, ``error``, scalars, ``curve_*``."""
+    import zarr
+
+    g = zarr.open_group(str(path), mode="r")
+    attrs = dict(g.attrs)
+    out: dict[str, np.ndarray] = {"design": np.asarray(g["design"][:], dtype=np.int64)}
+    for key in ("status", "error", "critical_kind"):
+        if key in attrs:
+            out[key] = _strings(attrs[key])
+    names = set(g.array_keys())
+    if "scalars" in names:
+        sc = np.asarray(g["scalars"][:])
+        for j, v in enumerate(SCALAR_VARS):
+            out[v] = sc[:, j]
+    if "curves" in names:
+        cur = np.asarray(g["curves"][:])
+        for j, v in enumerate(_CURVE_FLOATS):
+            out[f"curve_{v}"] = cur[:, :, j]
+        out["curve_stable"] = np.asarray(g["curve_stable"][:], dtype=bool)
+        out["n_points"] = np.asarray(g["n_points"][:], dtype=np.int64)
+    return out
 
 
 def design_dataset(spec: SweepSpec, table: DesignTable) -> Any:
@@ -248,15 +282,16 @@ class SweepStore:
             g = zarr.open_group(str(p), mode="r")
             i = np.asarray(g["design"][:], dtype=np.int64)
             if not include_failed:
-                i = i[np.asarray(g["status"][:]).astype(object) == "ok"]
+                i = i[np.asarray(g.attrs["status"], dtype=object) == "ok"]
             idx.append(i)
         return np.unique(np.concatenate(idx)) if idx else np.zeros(0, np.int64)
 
     def write_part(self, indices: Sequence[int], records: Sequence[Mapping[str, Any]]) -> Path:
         """Store one finished batch atomically; returns the part's path."""
-        ds = records_to_dataset(indices, records, self.spec.outputs)
         final = self.parts / f"part-{int(min(indices)):08d}-{uuid.uuid4().hex[:8]}.zarr"
-        _atomic_zarr(ds, final)
+        tmp = self.parts / f".tmp-{final.name}"
+        write_part_group(tmp, indices, records, self.spec.outputs)
+        os.rename(tmp, final)
         return final
 
     # ---------------------------------------------------------------- merge
@@ -276,20 +311,18 @@ class SweepStore:
         cols: dict[str, np.ndarray] = {}
         dims: dict[str, tuple[str, ...]] = {}
         for p in self.part_paths():
-            ds = xr.open_zarr(p, consolidated=False).load()
-            idx = ds["design"].values
+            part = read_part_group(p)
+            idx = part.pop("design")
             # first result wins, except that a success supersedes an earlier failure
-            ok_here = ds["status"].values.astype(object) == "ok"
+            ok_here = part["status"] == "ok"
             keep = ~seen[idx] | (failed_before[idx] & ok_here)
             seen[idx] = True
             failed_before[idx[keep]] = ~ok_here[keep]
             idx = idx[keep]
-            for name, var in ds.data_vars.items():
-                vals = np.asarray(var.values)[keep]
-                if vals.dtype.kind in "OUT":  # strings (StringDType when read back)
-                    vals = vals.astype(object)
+            for name, arr in part.items():
+                vals = arr[keep]
                 if name not in cols:
-                    dims[name] = var.dims
+                    dims[name] = ("design", "point")[:vals.ndim]
                     shape = (n, *vals.shape[1:])
                     if vals.dtype == object:
                         cols[name] = np.full(shape, "", dtype=object)
