@@ -234,3 +234,26 @@ def test_sigkill_half_way_then_rerun_completes_exactly_once(tmp_path: Path) -> N
     ref = run_sweep(spec, tmp_path / "ref", scheduler="threads", workers=2, batch_size=1)
     assert ref.n_ok == s.n_ok == 40
     assert_same_results(open_results(out), open_results(tmp_path / "ref"))
+
+
+def test_fe_backend_without_the_fe_room_names_the_missing_piece(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setitem(sys.modules, "multimorph.fe", None)  # as if not installed
+    spec = write_spec(tmp_path)
+    spec.write_text(spec.read_text().replace('"test_sweep_analytic:SphereBackend"', '"fe"'))
+    with pytest.raises(MultimorphError, match=r"needs multimorph\.fe, which is not available"
+                       r".*finite-element model of issue 5"):
+        run_sweep(spec, tmp_path / "out", scheduler="sync")
+    assert not (tmp_path / "out").exists()
+
+
+def test_unknown_backend_is_a_spec_error(tmp_path: Path) -> None:
+    spec = write_spec(tmp_path)
+    spec.write_text(spec.read_text().replace('"test_sweep_analytic:SphereBackend"', '"cfd"'))
+    with pytest.raises(SpecError, match="unknown backend 'cfd'; known: fe, rom"):
+        run_sweep(spec, tmp_path / "out", scheduler="sync")
+
+
+def test_unknown_scheduler_is_refused(tmp_path: Path) -> None:
+    with pytest.raises(SpecError, match="scheduler: expected local, threads, sync or an addr"):
+        run_sweep(write_spec(tmp_path), tmp_path / "out", scheduler="processes")

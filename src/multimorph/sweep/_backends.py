@@ -168,22 +168,40 @@ class RomBackend:
 
 
 class FeBackend:
-    """The finite-element model (:mod:`multimorph.fe`), one design per task."""
+    """The finite-element model (:func:`multimorph.fe.simulate_cell`), one design per task.
+
+    ``options`` are :class:`multimorph.fe.FESettings` fields (``mesh``, ``method``, ``tol`` …);
+    ``p_max`` is the sweep's ``pmax``.
+    """
 
     name = "fe"
     batch_size = 1
 
+    @staticmethod
+    def _api() -> tuple[Any, Any]:
+        fe = _import_model("multimorph.fe", "the finite-element model of issue 5")
+        fn, settings = getattr(fe, "simulate_cell", None), getattr(fe, "FESettings", None)
+        if fn is None or settings is None:
+            raise MultimorphError("multimorph.fe does not export simulate_cell and FESettings "
+                                  "(the finite-element model of issue 5 is not finished)")
+        return fn, settings
+
+    def validate(self, pmax: float, options: Mapping[str, Any]) -> None:
+        """Check ``options`` once, before any task runs (SpecError naming the bad key)."""
+        _, settings = self._api()
+        try:
+            settings(**{**dict(options), "p_max": pmax})
+        except TypeError as exc:
+            raise SpecError(f"sweep.options: not an FE setting ({exc})") from None
+
     def evaluate_batch(self, designs: Sequence[CellGeometry], pmax: float,
                        outputs: Sequence[str], options: Mapping[str, Any]) -> list[Any]:
-        fe = _import_model("multimorph.fe", "the finite-element model of issue 5")
-        fn = getattr(fe, "simulate_cell", None)
-        if fn is None:
-            raise MultimorphError("multimorph.fe has no simulate_cell(cell, pmax=...) entry "
-                                  "point yet")
+        fn, settings = self._api()
+        s = settings(**{**dict(options), "p_max": pmax})
         out: list[Any] = []
         for d in designs:
             try:
-                out.append(fn(d, pmax=pmax, **dict(options)))
+                out.append(fn(d, s).response)
             except Exception as exc:
                 out.append(exc)
         return out

@@ -204,11 +204,17 @@ def run_sweep(spec: SweepSpec | str | os.PathLike[str], out: str | os.PathLike[s
     SweepSummary
     """
     t0 = time.perf_counter()
+    if scheduler not in (None, "local", "threads", "sync") and ":" not in str(scheduler):
+        raise SpecError(f"scheduler: expected local, threads, sync or an address such as "
+                        f"tcp://host:8786, got {scheduler!r}")
     text = None
     if not isinstance(spec, SweepSpec):
         text = Path(spec).read_text(encoding="utf-8") if Path(spec).is_file() else None
         spec = load_sweep_spec(spec)
     be = backend if backend is not None else get_backend(spec.backend)
+    validate = getattr(be, "validate", None)
+    if validate is not None:
+        validate(spec.pmax, spec.options)
     bs = int(batch_size or be.batch_size)
     if bs < 1:
         raise SpecError(f"batch size must be >= 1, got {bs}")
