@@ -253,17 +253,23 @@ class SweepStore:
             if others:
                 raise SpecError(f"{self.path}: not a sweep folder and not empty "
                                 f"({', '.join(sorted(others)[:5])}); choose another --out")
-        self.parts.mkdir(exist_ok=True)
         for tmp in list(self.parts.glob(".tmp-*")) + list(self.path.glob(".tmp-*")):
-            shutil.rmtree(tmp, ignore_errors=True)  # leftovers of a killed run
-        if not (self.path / "designs.zarr").exists():
-            _atomic_zarr(design_dataset(self.spec, self.table), self.path / "designs.zarr")
-        if self.spec_text is not None and not (self.path / "spec.toml").exists():
-            (self.path / "spec.toml").write_text(self.spec_text)
+            if tmp.is_dir():  # leftovers of a killed run
+                shutil.rmtree(tmp, ignore_errors=True)
+            else:
+                tmp.unlink(missing_ok=True)
+        # the manifest first: a run killed during set-up leaves a folder that a rerun accepts
         if not man.exists():
             tmp = self.path / ".tmp-sweep.json"
             write_json(tmp, self.manifest())
             os.replace(tmp, man)
+        self.parts.mkdir(exist_ok=True)
+        if self.spec_text is not None and not (self.path / "spec.toml").exists():
+            tmp = self.path / ".tmp-spec.toml"
+            tmp.write_text(self.spec_text)
+            os.replace(tmp, self.path / "spec.toml")
+        if not (self.path / "designs.zarr").exists():
+            _atomic_zarr(design_dataset(self.spec, self.table), self.path / "designs.zarr")
 
     # ---------------------------------------------------------------- parts
     def part_paths(self) -> list[Path]:
