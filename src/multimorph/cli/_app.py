@@ -27,6 +27,9 @@ def _register() -> None:
     from multimorph.cli import _plot
 
     _plot.register(app)
+    from multimorph.cli import _simulate
+
+    _simulate.register(app)
 
 
 def main() -> None:

@@ -1,0 +1,112 @@
+"""``multimorph simulate``: a device on one pressure line — curves, sequence, shapes, GIF."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import typer
+
+from multimorph.cli._common import console, emit_json, handle_errors
+
+__all__ = ["register", "simulate"]
+
+
+def _snapshot_pressures(result: object, given: str | None) -> list[float]:
+    from multimorph.units import to_si
+
+    if given:
+        return [to_si(s.strip(), "Pa", field="--snapshots") for s in given.split(",") if s]
+    pmax = result.pmax  # type: ignore[attr-defined]
+    return [0.0, *[float(x) for x in np.linspace(pmax / 3, pmax, 3)]]
+
+
+def simulate(
+    spec: Annotated[Path, typer.Argument(help="Device spec (TOML): [device], [[module]].")],
+    pmax: Annotated[str | None, typer.Option(
+        help="Maximum pressure, e.g. '60 kPa' (default: the spec's device.pmax).")] = None,
+    out: Annotated[Path | None, typer.Option(
+        "--out", "-o", help="Output folder (default multimorph-out/simulate-<spec name>).")
+                   ] = None,
+    snapshots: Annotated[str | None, typer.Option(
+        help="Comma-separated pressures of the shape snapshots, e.g. '20 kPa,40 kPa'.")
+                         ] = None,
+    frames: Annotated[int, typer.Option(min=0, help="GIF frames (0: no animation).")] = 24,
+    as_json: Annotated[bool, typer.Option("--json", help="Print the JSON summary.")] = False,
+) -> None:
+    """Simulate a device: per-module curves, the sequence of modes, shapes and an animation.
+
+    Example: multimorph simulate examples/gripper.toml --pmax "60 kPa" --out out/gripper
+    """
+    from multimorph.device import device_from_spec, simulate_device
+    from multimorph.io import atomic_output_dir, load_toml, write_json
+    from multimorph.units import to_si
+    from multimorph.viz._device_plots import (
+        module_curves_figure,
+        shapes_figure,
+        write_animation,
+    )
+
+    with handle_errors(as_json):
+        device = device_from_spec(load_toml(spec))
+        p_max = to_si(pmax, "Pa", field="--pmax") if pmax else None
+        if p_max is not None and not p_max > 0:
+            from multimorph.errors import SpecError
+
+            raise SpecError(f"--pmax: must be a positive pressure, got {pmax!r}")
+        with console.status("tracing module responses…", spinner="dots"):
+            result = simulate_device(device, p_max)
+        pressures = _snapshot_pressures(result, snapshots)
+        folder = out if out is not None else Path("multimorph-out") / f"simulate-{spec.stem}"
+        summary = result.to_dict()
+        summary["files"] = ["summary.json", "curves.csv", "sequence.png", "shapes.png"] + (
+            ["morph.gif"] if frames else [])
+        with atomic_output_dir(folder) as tmp:
+            write_json(tmp / "summary.json", summary)
+            with open(tmp / "curves.csv", "w", newline="") as fh:
+                w = csv.writer(fh)
+                w.writerow(["module", "pressure_pa", "bend_1_per_m", "twist_rad_per_m",
+                            "stretch", "measure"])
+                for name, s in result.strains.items():
+                    for row in zip(s.pressure, s.bend, s.twist, s.stretch, s.measure,
+                                   strict=True):
+                        w.writerow([name, *(f"{x:.8g}" for x in row)])
+            module_curves_figure(result).savefig(tmp / "sequence.png", dpi=130)
+            shapes_figure(result, pressures).savefig(tmp / "shapes.png", dpi=110)
+            if frames:
+                with console.status("writing animation…", spinner="dots"):
+                    write_animation(result, tmp / "morph.gif", frames=frames)
+        if as_json:
+            emit_json({**summary, "out": str(folder)})
+            return
+        seq = result.sequence
+        console.print(f"[bold]{device.name}[/]: {len(device.modules)} modules, "
+                      f"P up to {result.pmax / 1e3:.4g} kPa")
+        for name in seq.order:
+            pc, ph = seq.windows[name]
+            s = result.strains[name]
+            f = s.response.characteristic.failure
+            console.print(
+                f"  {name:<14} {s.module.kind:<10} Pc = "
+                f"{'—' if pc is None else f'{pc / 1e3:.4g} kPa':<11} Ph = "
+                f"{'—' if ph is None else f'{ph / 1e3:.4g} kPa':<11} failure "
+                f"{'not reached' if f is None else f'{f / 1e3:.4g} kPa'}", highlight=False)
+        console.print("  dominance: " + ", ".join(
+            f"{b['module']} {b['from_pressure'] / 1e3:.3g}–{b['to_pressure'] / 1e3:.3g} kPa"
+            for b in seq.bands), highlight=False)
+        for m in seq.margins:
+            if m["margin"] is None:
+                console.print(f"  {m['earlier']} → {m['later']}: undetermined")
+            else:
+                console.print(f"  {m['earlier']} → {m['later']}: {m['verdict']} "
+                              f"(Pc_later − Ph_earlier = {m['margin'] / 1e3:+.3g} kPa)",
+                              highlight=False)
+        console.print(f"  first to fail: {seq.first_to_fail or 'none within the path'}; "
+                      f"unloading order: {', '.join(seq.unloading_order) or '—'}")
+        console.print(f"files in {folder}: {', '.join(summary['files'])}")
+
+
+def register(app: typer.Typer) -> None:
+    app.command("simulate")(simulate)
