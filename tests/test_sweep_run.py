@@ -257,3 +257,32 @@ def test_unknown_backend_is_a_spec_error(tmp_path: Path) -> None:
 def test_unknown_scheduler_is_refused(tmp_path: Path) -> None:
     with pytest.raises(SpecError, match="scheduler: expected local, threads, sync or an addr"):
         run_sweep(write_spec(tmp_path), tmp_path / "out", scheduler="processes")
+
+
+class PaddedSphere(SphereBackend):
+    """Records the batch sizes it is called with; asks for padded batches."""
+
+    pad_batches = True
+
+    def __init__(self) -> None:
+        self.sizes: list[int] = []
+
+    def evaluate_batch(self, designs, pmax, outputs, options):  # type: ignore[no-untyped-def]
+        self.sizes.append(len(designs))
+        return super().evaluate_batch(designs, pmax, outputs, options)
+
+
+def test_short_batches_are_padded_for_jitted_backends_and_padding_dropped(
+        tmp_path: Path) -> None:
+    be = PaddedSphere()
+    spec = write_spec(tmp_path, num=5)  # 15 designs, 10 valid: batches of 3 -> 3, 3, 3, 1
+    s = run_sweep(spec, tmp_path / "out", scheduler="sync", batch_size=3, backend=be)
+    assert be.sizes == [3, 3, 3, 3]
+    assert s.n_ok == 10
+    assert sorted(part_indices(tmp_path / "out").tolist()) == [i for i in range(15)
+                                                              if i % 3 != 2]
+    ds = open_results(tmp_path / "out")
+    table = parse_sweep_spec(tomllib.loads(spec.read_text())).design_table()
+    for i in table.valid_indices:
+        ref = SphereBackend._one(table.cells[i], 200e3, 60).characteristic.critical
+        assert ds["critical_pressure"].values[i] == ref

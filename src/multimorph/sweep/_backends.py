@@ -112,11 +112,21 @@ def _normalise(item: Any, outputs: Sequence[str]) -> dict[str, Any]:
 
 
 def evaluate_designs(backend: SweepBackend, designs: Sequence[CellGeometry], pmax: float,
-                     outputs: Sequence[str], options: Mapping[str, Any]) -> list[dict[str, Any]]:
+                     outputs: Sequence[str], options: Mapping[str, Any], *,
+                     pad_to: int | None = None) -> list[dict[str, Any]]:
     """Evaluate a batch; a failing batch is retried design by design so one bad design fails
-    alone. Never raises for a design's error: it is returned as a ``"failed"`` record."""
+    alone. Never raises for a design's error: it is returned as a ``"failed"`` record.
+
+    If the backend sets ``pad_batches = True`` (a jitted model compiles once per batch
+    shape), a short batch is padded to ``pad_to`` designs by repeating its last design and
+    the padding is dropped from the results.
+    """
+    n = len(designs)
+    padded = list(designs)
+    if getattr(backend, "pad_batches", False) and pad_to is not None and 0 < n < pad_to:
+        padded += [designs[-1]] * (pad_to - n)
     try:
-        out = backend.evaluate_batch(designs, pmax, outputs, options)
+        out = list(backend.evaluate_batch(padded, pmax, outputs, options))[:n]
         if len(out) != len(designs):
             raise MultimorphError(f"backend {backend.name} returned {len(out)} results for "
                                   f"{len(designs)} designs")

@@ -104,18 +104,19 @@ def plan_batches(valid: np.ndarray, done: np.ndarray, batch_size: int) -> list[n
 class _Job:
     """One task's arguments in an opaque box, so Dask does not traverse the design list."""
 
-    __slots__ = ("backend", "designs", "indices", "options", "outputs", "pmax")
+    __slots__ = ("backend", "batch_size", "designs", "indices", "options", "outputs", "pmax")
 
     def __init__(self, backend: SweepBackend, indices: np.ndarray,
                  designs: Sequence[CellGeometry], pmax: float, outputs: Sequence[str],
-                 options: Mapping[str, Any]) -> None:
+                 options: Mapping[str, Any], batch_size: int) -> None:
         self.backend, self.indices, self.designs = backend, indices, list(designs)
         self.pmax, self.outputs, self.options = pmax, tuple(outputs), dict(options)
+        self.batch_size = batch_size
 
 
 def _task(job: _Job) -> tuple[np.ndarray, list[dict[str, Any]]]:
     return job.indices, evaluate_designs(job.backend, job.designs, job.pmax, job.outputs,
-                                         job.options)
+                                         job.options, pad_to=job.batch_size)
 
 
 def _failed_batch(indices: np.ndarray, exc: BaseException) -> tuple[np.ndarray,
@@ -226,8 +227,8 @@ def run_sweep(spec: SweepSpec | str | os.PathLike[str], out: str | os.PathLike[s
         done = store.finished(include_failed=not retry_failed)
         batches = plan_batches(table.valid_indices, done, bs)
         total = int(sum(b.size for b in batches))
-        jobs = [_Job(be, b, [table.cells[i] for i in b], spec.pmax, spec.outputs, spec.options)
-                for b in batches]
+        jobs = [_Job(be, b, [table.cells[i] for i in b], spec.pmax, spec.outputs, spec.options,
+                     bs) for b in batches]
         count = [0]
 
         def write(res: tuple[np.ndarray, list[dict[str, Any]]]) -> None:
