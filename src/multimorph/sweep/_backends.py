@@ -157,24 +157,55 @@ def _import_model(module: str, issue: str) -> Any:
             "(install the matching extra, e.g. pip install 'multimorph[fe]')") from None
 
 
+#: Names tried, in order, for the reduced model's batched entry point
+#: ``fn(cells, p_max, **options) -> list[Response | Exception]``.
+ROM_BATCH_NAMES = ("simulate_batch", "simulate_cells", "evaluate_batch")
+
+
 class RomBackend:
     """The batched reduced-order model (:mod:`multimorph.rom`), many designs per task.
 
-    Batches are padded to a fixed size so the jitted, vmapped model compiles once per worker.
-    ``options`` are passed to the model as keyword arguments.
+    Calls the model's batched entry point (one vmapped, jitted call per batch; see
+    :data:`ROM_BATCH_NAMES`), or its single-design ``simulate_cell`` in a loop if it has no
+    batched one. Batches are padded to the sweep's batch size (``pad_batches``) so the jitted
+    model compiles once per worker. ``options`` are passed to the model as keyword arguments.
     """
 
     name = "rom"
     batch_size = 256
 
+    @property
+    def pad_batches(self) -> bool:
+        """Pad short batches only for the batched (jitted) entry point."""
+        return self._api()[1]
+
+    @staticmethod
+    def _api() -> tuple[Any, bool]:
+        rom = _import_model("multimorph.rom", "the reduced model of issue 3")
+        for n in ROM_BATCH_NAMES:
+            if callable(getattr(rom, n, None)):
+                return getattr(rom, n), True
+        if callable(getattr(rom, "simulate_cell", None)):
+            return rom.simulate_cell, False
+        raise MultimorphError("multimorph.rom has no simulate_cell or batched entry point "
+                              f"({', '.join(ROM_BATCH_NAMES)}) yet (issue 3)")
+
+    def validate(self, pmax: float, options: Mapping[str, Any]) -> None:
+        """Check that the model is there (before any task runs)."""
+        self._api()
+
     def evaluate_batch(self, designs: Sequence[CellGeometry], pmax: float,
                        outputs: Sequence[str], options: Mapping[str, Any]) -> list[Any]:
-        rom = _import_model("multimorph.rom", "the reduced model of issue 3")
-        fn = getattr(rom, "evaluate_batch", None) or getattr(rom, "simulate_batch", None)
-        if fn is None:
-            raise MultimorphError("multimorph.rom has no batched entry point "
-                                  "(evaluate_batch/simulate_batch) yet")
-        return list(fn(list(designs), pmax=pmax, **dict(options)))
+        fn, batched = self._api()
+        if batched:
+            return list(fn(list(designs), pmax, **dict(options)))
+        out: list[Any] = []
+        for d in designs:
+            try:
+                out.append(fn(d, pmax, **dict(options)))
+            except Exception as exc:
+                out.append(exc)
+        return out
 
 
 class FeBackend:
