@@ -1,0 +1,52 @@
+"""Finite-element verification (FElupe + contique + gmsh): the only room that imports them.
+
+Structured hexahedral meshes of a cell (:func:`cell_mesh`), a nearly incompressible mixed
+u/p/J̄ model with the package's own material energies (through tensortrax), follower
+pressure on the chamber faces, pressure-controlled stepping with cutbacks and arc-length
+continuation through limit points, measurements from node coordinates, and the shared
+:class:`~multimorph.response.Response` (``backend="fe"``).
+
+Heavy dependencies are imported inside functions; a missing one raises
+:class:`MissingExtraError` naming ``multimorph[fe]``.
+"""
+
+from multimorph.fe._cell import FEResult, FESettings, build_cell_problem, simulate_cell
+from multimorph.fe._deps import MissingExtraError
+from multimorph.fe._linsolve import LinearSolver, NonFiniteSystemError, make_solver
+from multimorph.fe._measure import (
+    bend_and_twist,
+    chamber_volume,
+    circle_fit_curvature,
+    line_stretch,
+    peak_stretch,
+)
+from multimorph.fe._mesh import MESH_PRESETS, CellMesh, MeshDensity, cell_mesh, resolve_density
+from multimorph.fe._problem import PressureProblem
+from multimorph.fe._solve import PathPoint, PathRun, continuation, newton, pressure_control
+
+__all__ = [
+    "MESH_PRESETS",
+    "CellMesh",
+    "FEResult",
+    "FESettings",
+    "LinearSolver",
+    "MeshDensity",
+    "MissingExtraError",
+    "NonFiniteSystemError",
+    "PathPoint",
+    "PathRun",
+    "PressureProblem",
+    "bend_and_twist",
+    "build_cell_problem",
+    "cell_mesh",
+    "chamber_volume",
+    "circle_fit_curvature",
+    "continuation",
+    "line_stretch",
+    "make_solver",
+    "newton",
+    "peak_stretch",
+    "pressure_control",
+    "resolve_density",
+    "simulate_cell",
+]

@@ -1,0 +1,277 @@
+"""3D FE analysis of a unit cell: mesh, model, path, measurements, :class:`Response`.
+
+Internally the problem is nondimensional: lengths in units of the cell length d and stresses
+in units of the wall shear modulus μ (``Material.scaled(1/μ)``), so Newton tolerances and
+step sizes mean the same for every cell. Results are converted back to SI.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+
+from multimorph.errors import MultimorphError, SpecError
+from multimorph.fe._deps import require
+from multimorph.fe._derive import characteristic_pressures, observed_curves
+from multimorph.fe._linsolve import make_solver
+from multimorph.fe._measure import (
+    bend_and_twist,
+    chamber_volume,
+    circle_fit_curvature,
+    line_stretch,
+    peak_stretch,
+)
+from multimorph.fe._mesh import BOTTOM, WALL, CellMesh, MeshDensity, cell_mesh
+from multimorph.fe._problem import PressureProblem
+from multimorph.fe._solve import PathPoint, PathRun, continuation, pressure_control
+from multimorph.geometry import CellGeometry
+from multimorph.response import EquilibriumPath, Response
+
+__all__ = ["FEResult", "FESettings", "build_cell_problem", "simulate_cell"]
+
+
+@dataclass(frozen=True)
+class FESettings:
+    """Settings of a cell analysis (SI units; ``None`` picks the default noted).
+
+    Parameters
+    ----------
+    mesh : {"coarse", "medium", "fine"} or MeshDensity
+    element_size : float, optional
+        Explicit element edge length (m).
+    half : bool
+        Mesh half the cell (mirror plane x = w/2).
+    p_max : float, optional
+        Highest pressure (Pa); default the wall shear modulus μ.
+    method : {"auto", "pressure", "arc-length"}
+        ``"auto"``: pressure control, switching to arc-length continuation where the pressure
+        steps stall (a limit point or a steep ballooning branch).
+    solver : {"auto", "pardiso", "superlu"}
+    tol : float
+        Relative Newton tolerance on the residual norm.
+    max_steps : int
+        Largest number of converged points.
+    max_volume_ratio : float
+        Stop when the chamber volume exceeds this multiple of its initial volume.
+    max_stretch : float, optional
+        Stop when the peak principal stretch exceeds this; default the wall material's break
+        stretch if it has one.
+    dx_max, dp_max : float
+        Continuation increments: displacement (fraction of d) and pressure (fraction of μ).
+    """
+
+    mesh: str | MeshDensity = "coarse"
+    element_size: float | None = None
+    half: bool = True
+    p_max: float | None = None
+    method: str = "auto"
+    solver: str = "auto"
+    tol: float = 1e-8
+    max_steps: int = 400
+    max_volume_ratio: float = 60.0
+    max_stretch: float | None = None
+    dx_max: float = 0.01
+    dp_max: float = 0.02
+
+    def __post_init__(self) -> None:
+        if self.method not in ("auto", "pressure", "arc-length"):
+            raise SpecError(f"method: expected auto, pressure or arc-length, got {self.method!r}")
+        if self.p_max is not None and not (math.isfinite(self.p_max) and self.p_max > 0):
+            raise SpecError(f"p_max: must be a positive pressure, got {self.p_max!r}")
+
+
+@dataclass(frozen=True, eq=False)
+class FEResult:
+    """An FE cell analysis: the shared :class:`Response` plus what the outputs need.
+
+    Attributes
+    ----------
+    response : Response
+        ``backend="fe"``; the path in SI units, observed curves, characteristic pressures.
+    mesh : CellMesh
+    displacements : ndarray (n, npoints, 3)
+        Nodal displacements (m) at every path point (row 0: the undeformed state).
+    stretch : ndarray (n, ncells)
+        Largest principal stretch per cell (cell average) at every path point.
+    stats : dict
+        Solver statistics (DOF, steps, Newton iterations, times, solver name, status).
+    """
+
+    response: Response
+    mesh: CellMesh
+    displacements: np.ndarray
+    stretch: np.ndarray
+    stats: dict[str, Any] = field(default_factory=dict)
+
+
+def build_cell_problem(mesh: CellMesh) -> tuple[PressureProblem, float, float]:
+    """The nondimensional FE problem of a meshed cell; returns (problem, L, μ)."""
+    fem = require("felupe")
+    g = mesh.geometry
+    L, mu = g.length, g.mu
+    fmesh = fem.Mesh(mesh.points / L, mesh.cells, "hexahedron")
+    fixed = np.zeros((len(mesh.points), 3), dtype=bool)
+    fixed[mesh.clamped] = True
+    fixed[mesh.mirror, 0] = True
+    assert g.bottom_material is not None
+    bodies = [(np.flatnonzero(mesh.region == WALL), g.material.scaled(1.0 / mu)),
+              (np.flatnonzero(mesh.region == BOTTOM), g.bottom_material.scaled(1.0 / mu))]
+    bodies = [(c, m) for c, m in bodies if len(c)]
+    return PressureProblem(fmesh, bodies, mesh.chamber_points, fixed), L, mu
+
+
+class _Recorder:
+    """Measures every converged point and decides when to stop."""
+
+    def __init__(self, mesh: CellMesh, problem: PressureProblem, L: float, mu: float,
+                 p_max: float, max_volume_ratio: float, max_stretch: float | None,
+                 progress: Callable[[float, int], None] | None) -> None:
+        self.mesh, self.problem, self.L, self.mu = mesh, problem, L, mu
+        self.p_max = p_max
+        self.max_volume_ratio = max_volume_ratio
+        self.max_stretch = max_stretch
+        self.progress = progress
+        g = mesh.geometry
+        self.V0 = g.wc * g.hc * g.dc
+        self.rows: list[dict[str, Any]] = []
+        self.u: list[np.ndarray] = []
+        self.cell_stretch: list[np.ndarray] = []
+        self.stop_reason = ""
+        self.add(PathPoint(0.0, problem.get_x(), 0, True, "start"))
+
+    def add(self, pt: PathPoint) -> bool:
+        m, g = self.mesh, self.mesh.geometry
+        self.problem.set_x(pt.x)
+        u = self.problem.values.copy() * self.L
+        x = m.points + u
+        line = m.bend_line
+        kappa = circle_fit_curvature(x[line, 1], x[line, 2])
+        bend, twist = bend_and_twist(m.points[m.end_face], x[m.end_face])
+        vol = chamber_volume(x, m.chamber_faces, mirror_x=g.width / 2 if m.half else None)
+        F = self.problem.deformation_gradient()
+        lam, _, cell = peak_stretch(F)
+        C = np.einsum("kiqc,kjqc->qcij", F, F)
+        cs = np.sqrt(np.linalg.eigvalsh(C)[..., -1]).mean(axis=0)
+        loc = m.points[m.cells[cell]].mean(axis=0)
+        self.rows.append({
+            "pressure": pt.pressure * self.mu, "curvature": kappa,
+            "twist_rate": twist / g.length,
+            "axial_stretch": line_stretch(m.points[line], x[line]),
+            "volume": vol, "peak_stretch": lam,
+            "stable": bool(pt.stable) if pt.stable is not None else True,
+            "bend_angle": bend, "twist_angle": twist, "volume_ratio": vol / self.V0,
+            "peak_x": loc[0], "peak_y": loc[1], "peak_z": loc[2],
+            "peak_region": int(m.region[cell]), "newton_iterations": pt.iterations,
+            "arc_length": pt.method == "arc-length",
+        })
+        self.u.append(u)
+        self.cell_stretch.append(cs)
+        if self.progress is not None:
+            self.progress(pt.pressure * self.mu, len(self.rows))
+        if vol / self.V0 > self.max_volume_ratio:
+            self.stop_reason = f"chamber volume ratio exceeded {self.max_volume_ratio:g}"
+            return True
+        if self.max_stretch is not None and lam > self.max_stretch:
+            self.stop_reason = f"peak stretch exceeded {self.max_stretch:g}"
+            return True
+        if pt.method == "arc-length" and pt.pressure * self.mu >= self.p_max and len(self.rows) > 2:
+            if self.rows[-1]["pressure"] >= self.rows[-2]["pressure"]:
+                self.stop_reason = "reached p_max"
+                return True
+        return False
+
+    def path(self) -> EquilibriumPath:
+        r = self.rows
+        arr = {k: np.array([row[k] for row in r]) for k in r[0]}
+        extra = {k: arr[k] for k in ("bend_angle", "twist_angle", "volume_ratio",
+                                     "peak_region", "newton_iterations", "arc_length")}
+        extra["peak_location"] = np.column_stack([arr["peak_x"], arr["peak_y"], arr["peak_z"]])
+        return EquilibriumPath(
+            pressure=arr["pressure"], curvature=arr["curvature"],
+            twist_rate=arr["twist_rate"], axial_stretch=arr["axial_stretch"],
+            volume=arr["volume"], peak_stretch=arr["peak_stretch"],
+            stable=arr["stable"].astype(bool), extra=extra)
+
+
+def _merge(a: PathRun, b: PathRun) -> PathRun:
+    a.points += b.points
+    a.attempts += b.attempts
+    a.cutbacks += b.cutbacks
+    a.newton_iterations += b.newton_iterations
+    a.wall_time += b.wall_time
+    a.status, a.message = b.status, b.message
+    return a
+
+
+def simulate_cell(geometry: CellGeometry, settings: FESettings | None = None, *,
+                  progress: Callable[[float, int], None] | None = None) -> FEResult:
+    """Inflate a unit cell with FE and measure it like the reference paper.
+
+    Parameters
+    ----------
+    geometry : CellGeometry
+    settings : FESettings, optional
+    progress : callable, optional
+        ``progress(pressure_Pa, n_points)`` after every converged point.
+
+    Returns
+    -------
+    FEResult
+        ``result.response`` is a :class:`~multimorph.response.Response` with
+        ``backend="fe"``.
+
+    Examples
+    --------
+    >>> from multimorph.materials import Material
+    >>> g = CellGeometry(20e-3, 10e-3, 8e-3, 1e-3, 2e-3, 2e-3, 2e-3,
+    ...                  material=Material("gent", {"mu": 1e5, "jm": 30.0}))
+    >>> r = simulate_cell(g, FESettings(p_max=2e4))  # doctest: +SKIP
+    >>> r.response.path.curvature[-1] > 0  # doctest: +SKIP
+    True
+    """
+    s = settings or FESettings()
+    t0 = time.perf_counter()
+    mesh = cell_mesh(geometry, s.mesh, element_size=s.element_size, half=s.half)
+    problem, L, mu = build_cell_problem(mesh)
+    solver = make_solver(s.solver)
+    p_max = s.p_max if s.p_max is not None else mu
+    max_stretch = s.max_stretch if s.max_stretch is not None else geometry.material.break_stretch
+    rec = _Recorder(mesh, problem, L, mu, p_max, s.max_volume_ratio, max_stretch, progress)
+    pe = p_max / mu
+    run = PathRun()
+    if s.method in ("auto", "pressure"):
+        run = pressure_control(problem, pe, solver, dp0=pe / 20, dp_min=pe / 400,
+                               dp_max=pe / 8, tol=s.tol, max_steps=s.max_steps,
+                               on_point=rec.add)
+    if s.method == "arc-length" or (s.method == "auto" and run.status == "stalled"):
+        p_start = run.points[-1].pressure if run.points else 0.0
+        if run.points:
+            problem.set_x(run.points[-1].x)
+        more = continuation(problem, p_start, solver, dx_max=s.dx_max, dp_max=s.dp_max,
+                            max_steps=max(s.max_steps - len(run.points), 1), tol=1e-9 * pe,
+                            on_point=rec.add)
+        run = _merge(run, more)
+    if len(rec.rows) < 2:
+        raise MultimorphError(f"FE analysis found no equilibrium beyond P = 0: {run.message}")
+    path = rec.path()
+    loading, unloading = observed_curves(path)
+    char = characteristic_pressures(path, loading, geometry.material.break_stretch)
+    stats = {
+        "backend": "fe", "ndof": int(mesh.ndof), "nfree": int(problem.nfree),
+        "ncells": int(mesh.ncells), "points": len(rec.rows) - 1, "attempts": run.attempts,
+        "cutbacks": run.cutbacks, "newton_iterations": run.newton_iterations,
+        "status": run.status, "message": run.message, "stop_reason": rec.stop_reason,
+        "solver": solver.name, "solve_time": solver.time, "solves": solver.calls,
+        "assembly_time": problem.stats.time, "wall_time": time.perf_counter() - t0,
+        "settings": {k: (v if not isinstance(v, MeshDensity) else asdict(v))
+                     for k, v in asdict(s).items()},
+    }
+    resp = Response(path=path, loading=loading, unloading=unloading, characteristic=char,
+                    length=geometry.length, shear_modulus=mu, backend="fe", meta=stats)
+    return FEResult(response=resp, mesh=mesh, displacements=np.array(rec.u),
+                    stretch=np.array(rec.cell_stretch), stats=stats)

@@ -1,0 +1,117 @@
+"""Sparse linear solvers for symmetric FE tangents: PARDISO (MKL) or SuperLU.
+
+PARDISO runs in real symmetric-indefinite mode (``mtype=-2``) on the upper triangle; it was
+the fastest solver on this 2-core machine (fe-notes §3). It is an optional extra
+(``multimorph[fast]``); without it SuperLU is used. Either way a matrix or right-hand side
+with NaN/inf entries is refused *before* the factorisation: MKL crashed (segfault) on such a
+matrix in a trial (a Newton trial state beyond Gent's lock-up), so a failed iterate becomes a
+clean :class:`NonFiniteSystemError` that the step control answers with a cutback.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from multimorph.errors import MultimorphError
+
+__all__ = ["LinearSolver", "NonFiniteSystemError", "make_solver", "pardiso_available"]
+
+
+class NonFiniteSystemError(MultimorphError, ArithmeticError):
+    """The tangent or the right-hand side contains NaN or inf."""
+
+
+def pardiso_available() -> bool:
+    """Whether pypardiso (MKL) can be imported (cached after the first call)."""
+    global _PARDISO_OK
+    if _PARDISO_OK is None:
+        if os.environ.get("MULTIMORPH_NO_PARDISO"):
+            _PARDISO_OK = False
+        else:
+            try:
+                import pypardiso  # noqa: F401
+
+                _PARDISO_OK = True
+            except Exception:  # ImportError, or an MKL that fails to load
+                _PARDISO_OK = False
+    return _PARDISO_OK
+
+
+_PARDISO_OK: bool | None = None
+
+
+@dataclass
+class LinearSolver:
+    """Solve ``K x = b`` for a symmetric sparse ``K`` (one or several right-hand sides).
+
+    Attributes
+    ----------
+    name : str
+        ``"pardiso-sym-indef"`` or ``"superlu"``.
+    time : float
+        Seconds spent in factorisations and solves.
+    calls : int
+    """
+
+    name: str
+    time: float = 0.0
+    calls: int = 0
+    #: (positive, negative) eigenvalue counts of the last factorised matrix (PARDISO only)
+    inertia: tuple[int, int] | None = None
+
+    def __post_init__(self) -> None:
+        self._pardiso: Any = None
+        if self.name == "pardiso-sym-indef":
+            import pypardiso
+
+            self._pardiso = pypardiso.PyPardisoSolver(mtype=-2)
+
+    def solve(self, K: sp.spmatrix, b: np.ndarray) -> np.ndarray:
+        """Solve; raises :class:`NonFiniteSystemError` for non-finite input."""
+        K = K.tocsr()
+        b = np.asarray(b, dtype=float)
+        if not (np.all(np.isfinite(K.data)) and np.all(np.isfinite(b))):
+            raise NonFiniteSystemError("tangent or right-hand side contains NaN/inf")
+        t = time.perf_counter()
+        try:
+            if self._pardiso is not None:
+                U = sp.triu(K, format="csr")
+                U.sort_indices()
+                x = self._pardiso.solve(U, b)
+                self.inertia = (int(self._pardiso.iparm[21]), int(self._pardiso.iparm[22]))
+                self._pardiso.free_memory()
+            else:
+                lu = spla.splu(K.tocsc())
+                x = lu.solve(b)
+        finally:
+            self.time += time.perf_counter() - t
+            self.calls += 1
+        x = np.asarray(x).reshape(b.shape)
+        if not np.all(np.isfinite(x)):
+            raise NonFiniteSystemError("linear solve returned NaN/inf (singular tangent?)")
+        return x
+
+
+def make_solver(kind: str = "auto") -> LinearSolver:
+    """A fresh solver: ``"auto"`` (PARDISO if importable, else SuperLU), ``"pardiso"`` or
+    ``"superlu"``.
+    """
+    kind = kind.lower()
+    if kind == "auto":
+        kind = "pardiso" if pardiso_available() else "superlu"
+    if kind == "pardiso":
+        if not pardiso_available():
+            from multimorph.fe._deps import MissingExtraError
+
+            raise MissingExtraError("pypardiso is not installed (pip install 'multimorph[fast]')")
+        return LinearSolver("pardiso-sym-indef")
+    if kind == "superlu":
+        return LinearSolver("superlu")
+    raise MultimorphError(f"unknown linear solver {kind!r}; expected auto, pardiso or superlu")

@@ -1,0 +1,127 @@
+"""Measurements from node coordinates, as the reference paper did with its FE results.
+
+Every function takes reference and deformed node coordinates (any consistent length unit)
+and returns plain numbers, so it works for FE states and for tests with synthetic shapes.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["bend_and_twist", "chamber_volume", "circle_fit_curvature", "line_stretch",
+           "peak_stretch"]
+
+# 2×2 Gauss points on [0, 1]² with weights 1/4
+_G = 0.5 + np.array([-1.0, 1.0]) / (2.0 * np.sqrt(3.0))
+
+
+def chamber_volume(x: np.ndarray, faces: np.ndarray, *, mirror_x: float | None = None,
+                   ) -> float:
+    """Volume enclosed by bilinear quad faces (divergence theorem, exact 2×2 Gauss).
+
+    ``V = ∮ (x − x_s) n_x dA`` with the face normals pointing out of the enclosed region.
+    With ``mirror_x`` given, the faces close the region together with the plane
+    ``x = mirror_x`` (where the integrand vanishes) and the volume of both halves is returned.
+
+    Parameters
+    ----------
+    x : ndarray (n, 3)
+        Node coordinates.
+    faces : ndarray (k, 4)
+        Quads, counter-clockwise seen from outside the enclosed region.
+    mirror_x : float, optional
+        x of the mirror plane of a half model.
+    """
+    X = x[faces]  # (k, 4, 3)
+    xs = 0.0 if mirror_x is None else mirror_x
+    vol = 0.0
+    for s in _G:
+        for t in _G:
+            N = np.array([(1 - s) * (1 - t), s * (1 - t), s * t, (1 - s) * t])
+            dNs = np.array([-(1 - t), 1 - t, t, -t])
+            dNt = np.array([-(1 - s), -s, s, 1 - s])
+            p = np.einsum("a,kai->ki", N, X)
+            a = np.einsum("a,kai->ki", dNs, X)
+            b = np.einsum("a,kai->ki", dNt, X)
+            n = np.cross(a, b)
+            vol += 0.25 * np.sum((p[:, 0] - xs) * n[:, 0])
+    return float(2.0 * vol if mirror_x is not None else vol)
+
+
+def circle_fit_curvature(y: np.ndarray, z: np.ndarray) -> float:
+    """Signed curvature of the least-squares circle through points (y_i, z_i).
+
+    Algebraic (Kåsa) fit. The sign is positive when the line turns towards −z as y grows
+    (the top outward, the bottom on the inside of the bend); 0 for a straight line.
+    """
+    y = np.asarray(y, float)
+    z = np.asarray(z, float)
+    chord = np.array([y[-1] - y[0], z[-1] - z[0]])
+    length = float(np.hypot(*chord))
+    normal = np.array([-chord[1], chord[0]]) / length
+    sag = (y - y[0]) * normal[0] + (z - z[0]) * normal[1]
+    if np.max(np.abs(sag)) < 1e-9 * length:
+        return 0.0  # straight
+    # centre (yc, zc) and radius from y² + z² + D y + E z + F = 0 (shifted for conditioning)
+    ys, zs = y - y.mean(), z - z.mean()
+    A = np.column_stack([ys, zs, np.ones_like(ys)])
+    sol, *_ = np.linalg.lstsq(A, -(ys**2 + zs**2), rcond=None)
+    D, E, F = sol
+    r2 = D**2 / 4 + E**2 / 4 - F
+    if not np.isfinite(r2) or r2 <= 0:
+        return 0.0
+    k = 1.0 / np.sqrt(r2)
+    # turning direction: the sign of the sagitta relative to the chord's left normal
+    turn = np.sign(np.sum(sag))
+    return float(k if turn > 0 else -k)
+
+
+def line_stretch(X: np.ndarray, x: np.ndarray) -> float:
+    """Arc-length ratio of a polyline (deformed / reference)."""
+    L0 = np.sum(np.linalg.norm(np.diff(X, axis=0), axis=1))
+    L = np.sum(np.linalg.norm(np.diff(x, axis=0), axis=1))
+    return float(L / L0)
+
+
+def _kabsch(X: np.ndarray, x: np.ndarray) -> np.ndarray:
+    Xc = X - X.mean(0)
+    xc = x - x.mean(0)
+    H = Xc.T @ xc
+    U, _, Vt = np.linalg.svd(H)
+    d = np.sign(np.linalg.det(Vt.T @ U.T))
+    D = np.diag([1.0, 1.0, d])
+    return Vt.T @ D @ U.T
+
+
+def bend_and_twist(X: np.ndarray, x: np.ndarray) -> tuple[float, float]:
+    """Bend angle about x and twist angle about the deformed axis of a cross-section (rad).
+
+    The section's best-fit rotation R (Kabsch) maps the axis e_y to t = R e_y. The bend
+    angle is the rotation of t in the y–z plane, positive towards −z (top outward); the
+    twist is the rotation of R e_x about t, measured from e_x projected normal to t.
+    """
+    R = _kabsch(X, x)
+    t = R[:, 1]
+    bend = float(np.arctan2(-t[2], t[1]))
+    b = R[:, 0]
+    u = np.array([1.0, 0.0, 0.0]) - t[0] * t
+    nu = np.linalg.norm(u)
+    if nu < 1e-12:
+        return bend, 0.0
+    u /= nu
+    twist = float(np.arctan2(np.dot(np.cross(u, b), t), np.dot(u, b)))
+    return bend, twist
+
+
+def peak_stretch(F: np.ndarray) -> tuple[float, int, int]:
+    """Largest principal stretch over quadrature points; returns (value, point, cell).
+
+    Parameters
+    ----------
+    F : ndarray (3, 3, q, c)
+        Deformation gradients.
+    """
+    C = np.einsum("kiqc,kjqc->qcij", F, F)
+    ev = np.linalg.eigvalsh(C)[..., -1]
+    q, c = np.unravel_index(np.argmax(ev), ev.shape)
+    return float(np.sqrt(ev[q, c])), int(q), int(c)

@@ -1,0 +1,214 @@
+"""A pressure-loaded, nearly incompressible FE problem with explicit state handling.
+
+FElupe's :class:`SolidBodyNearlyIncompressible` (u/p/J̄ with cell-wise constant p and J̄,
+condensed) updates p and J̄ on every residual call by a *linearised* step from the previous
+call (fe-notes §2). That linearised update is what makes Newton converge in a few
+iterations: evaluating the dual fields exactly (J̄ = v/V) after a large linearised step puts
+a huge K(J − 1) into the geometric stiffness, and Newton diverges for steps of a few per cent
+of μ (measured on the unit cell: 4 iterations per 0.05 μ step with the linearised update,
+divergence with the exact one). The price is hidden state, so this class makes it explicit:
+
+* :meth:`PressureProblem.sync` sets the dual fields to their exact values at a displacement
+  (J̄_e = v_e/V_e, p_e = K(J̄_e − 1)); call it at every converged point and before every
+  Newton solve or retry, which starts from that point;
+* :meth:`PressureProblem.residual` advances the state by FElupe's linearised update;
+* :meth:`PressureProblem.tangent` reuses the kinematics of the preceding residual call at the
+  same displacement (never re-extracting, which would update the state twice).
+
+The residual is ``r(u, P) = f_int(u) − P g(u)`` with the follower pressure load ``g`` at unit
+pressure on the chamber faces; the tangent is ``∂r/∂u`` and ``∂r/∂P = −g``.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import scipy.sparse as sp
+
+from multimorph.fe._deps import require
+from multimorph.fe._material import felupe_umat
+from multimorph.materials import Material
+
+__all__ = ["AssemblyStats", "PressureProblem"]
+
+
+@dataclass
+class AssemblyStats:
+    """Counters of assembly work (seconds and calls)."""
+
+    vector_time: float = 0.0
+    matrix_time: float = 0.0
+    vectors: int = 0
+    matrices: int = 0
+
+    @property
+    def time(self) -> float:
+        return self.vector_time + self.matrix_time
+
+
+class _MeanDilatationBody:
+    """A nearly incompressible FElupe body whose dual fields are set exactly before use."""
+
+    def __init__(self, material: Material, region: Any, field_cls: Any, global_field: Any,
+                 ) -> None:
+        fem = require("felupe")
+        self.field = fem.FieldContainer([field_cls(region, dim=global_field[0].dim)])
+        self.field.link(global_field)
+        self.solid = fem.SolidBodyNearlyIncompressible(
+            felupe_umat(material), self.field, bulk=material.bulk)
+
+    def sync(self) -> None:
+        """Set the dual fields to their exact values at the current displacement."""
+        res = self.solid.results
+        st = res.state
+        res.kinematics = st.F = self.field.extract(out=res.kinematics)
+        st.u[:] = self.field[0].values
+        st.J[:] = st.volume() / self.solid.V
+        st.p[:] = self.solid.bulk * (st.J - 1.0)
+
+    def vector(self) -> Any:
+        """Internal force; advances the dual fields by FElupe's linearised update."""
+        return self.solid.assemble.vector(field=self.field)
+
+    def matrix(self) -> Any:
+        """Tangent at the kinematics of the preceding :meth:`vector` call."""
+        return self.solid.assemble.matrix()
+
+
+@dataclass(eq=False)
+class PressureProblem:
+    """Nearly incompressible bodies on one mesh, a follower pressure, fixed DOF (u = 0).
+
+    Units are whatever the caller scaled to (the cell model uses lengths in units of the cell
+    length and stresses in units of the wall shear modulus).
+
+    Parameters
+    ----------
+    mesh : felupe.Mesh
+        The whole mesh (all bodies share its points).
+    bodies : sequence of (cell indices, Material)
+        One nearly incompressible body per material region.
+    pressure_mask : ndarray (npoints,) of bool
+        Nodes of the pressurised faces (a face is loaded when all its nodes are).
+    fixed : ndarray (npoints, dim) of bool
+        Fixed displacement components.
+    kind : {"3d", "axisymmetric", "plane_strain"}
+    """
+
+    mesh: Any
+    bodies: Sequence[tuple[np.ndarray, Material]]
+    pressure_mask: np.ndarray
+    fixed: np.ndarray
+    kind: str = "3d"
+    stats: AssemblyStats = field(default_factory=AssemblyStats)
+
+    def __post_init__(self) -> None:
+        fem = require("felupe")
+        dim = self.mesh.points.shape[1]
+        if self.kind == "3d":
+            region_cls, bregion_cls, field_cls = (fem.RegionHexahedron,
+                                                  fem.RegionHexahedronBoundary, fem.Field)
+            bkw: dict[str, Any] = {}
+        else:
+            region_cls, bregion_cls = fem.RegionQuad, fem.RegionQuadBoundary
+            field_cls = (fem.FieldAxisymmetric if self.kind == "axisymmetric"
+                         else fem.FieldPlaneStrain)
+            bkw = {"ensure_3d": True}
+        region = region_cls(self.mesh)
+        self.field = fem.FieldContainer([field_cls(region, dim=dim)])
+        self._bodies = []
+        for cells, material in self.bodies:
+            sub = self.mesh.copy()
+            sub.update(cells=self.mesh.cells[np.asarray(cells)])
+            self._bodies.append(_MeanDilatationBody(material, region_cls(sub), field_cls,
+                                                    self.field))
+        bregion = bregion_cls(self.mesh, only_surface=True, mask=self.pressure_mask, **bkw)
+        if bregion.mesh.ncells == 0:
+            raise ValueError("no pressurised faces selected")
+        bfield = fem.FieldContainer([field_cls(bregion, dim=dim)])
+        self._pressure = fem.SolidBodyPressure(bfield, pressure=1.0)
+        self.fixed = np.asarray(self.fixed, dtype=bool).reshape(-1, dim)
+        self.active = np.flatnonzero(~self.fixed.ravel())
+        self.dim = dim
+        self._last_x: np.ndarray | None = None
+
+    # ------------------------------------------------------------------ state
+    @property
+    def values(self) -> np.ndarray:
+        """Nodal displacements (npoints, dim), a live view."""
+        return self.field[0].values
+
+    def get_x(self) -> np.ndarray:
+        """Active displacement components (copy)."""
+        return self.values.ravel()[self.active].copy()
+
+    def set_x(self, x: np.ndarray) -> None:
+        flat = self.values.reshape(-1)
+        flat[self.active] = x
+
+    @property
+    def nfree(self) -> int:
+        return len(self.active)
+
+    # ------------------------------------------------------------------ assembly
+    def _vec(self, v: Any) -> np.ndarray:
+        return np.asarray(v.toarray()).ravel() if sp.issparse(v) else np.asarray(v).ravel()
+
+    def internal_force(self) -> np.ndarray:
+        """Internal force vector (all DOF)."""
+        t = time.perf_counter()
+        r = sum(self._vec(b.vector()) for b in self._bodies)
+        self.stats.vector_time += time.perf_counter() - t
+        self.stats.vectors += 1
+        return np.asarray(r)
+
+    def pressure_load(self) -> np.ndarray:
+        """Follower load g(u) of unit pressure (all DOF)."""
+        return self._vec(self._pressure.assemble.vector(field=self.field, pressure=1.0))
+
+    def sync(self, x: np.ndarray) -> None:
+        """Set the displacement to ``x`` and the bodies' dual fields exactly (a restore)."""
+        self.set_x(x)
+        for b in self._bodies:
+            b.sync()
+        self._last_x = None
+
+    def residual(self, x: np.ndarray, p: float) -> tuple[np.ndarray, np.ndarray]:
+        """Residual ``r = f_int − p g`` and the unit load ``g`` on the active DOF at ``x``.
+
+        Advances the dual fields (linearised update from the previous evaluation).
+        """
+        self.set_x(x)
+        fi = self.internal_force()
+        g = self.pressure_load()
+        self._last_x = np.array(x, copy=True)
+        return (fi - p * g)[self.active], g[self.active]
+
+    def tangent(self, x: np.ndarray, p: float) -> sp.csr_matrix:
+        """Tangent ``∂r/∂u`` on the active DOF at ``x`` (CSR).
+
+        Uses the kinematics of the preceding :meth:`residual` call, which must have been at
+        the same ``x`` (otherwise the residual is evaluated first).
+        """
+        if self._last_x is None or not np.array_equal(self._last_x, x):
+            self.residual(x, p)
+        t = time.perf_counter()
+        K = None
+        for b in self._bodies:
+            Kb = b.matrix()
+            K = Kb if K is None else K + Kb
+        Kp = self._pressure.assemble.matrix(pressure=1.0)
+        K = (K - p * Kp).tocsr()
+        a = self.active
+        K = K[a][:, a]
+        self.stats.matrix_time += time.perf_counter() - t
+        self.stats.matrices += 1
+        return K.tocsr()
+
+    def deformation_gradient(self) -> np.ndarray:
+        """F at the quadrature points, shape (3, 3, q, cells) (plane/axisymmetric: 3×3)."""
+        return self.field.extract()[0]

@@ -1,0 +1,290 @@
+"""Path drivers: Newton, pressure-controlled stepping with cutback, arc-length continuation.
+
+All three work on a :class:`~multimorph.fe._problem.PressureProblem`, whose residual is a pure
+function of the displacement (no hidden state), so a rejected step is undone by writing the
+last converged displacement back, and contique's cycles need no state bookkeeping.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import scipy.sparse as sp
+
+from multimorph.fe._deps import require
+from multimorph.fe._linsolve import LinearSolver, NonFiniteSystemError
+from multimorph.fe._problem import PressureProblem
+
+__all__ = ["NewtonInfo", "PathPoint", "PathRun", "continuation", "newton",
+           "pressure_control"]
+
+
+@dataclass
+class NewtonInfo:
+    """Outcome of one Newton solve."""
+
+    converged: bool
+    iterations: int
+    residuals: list[float]
+    message: str = ""
+
+
+@dataclass
+class PathPoint:
+    """One converged equilibrium state (nondimensional units of the problem)."""
+
+    pressure: float
+    x: np.ndarray
+    iterations: int
+    stable: bool | None
+    method: str  # "pressure" or "arc-length"
+
+
+@dataclass
+class PathRun:
+    """Result of a path driver: the converged points and how it ended."""
+
+    points: list[PathPoint] = field(default_factory=list)
+    status: str = "running"  # "completed", "stopped", "stalled", "max_steps"
+    message: str = ""
+    attempts: int = 0
+    cutbacks: int = 0
+    newton_iterations: int = 0
+    wall_time: float = 0.0
+
+
+def _inertia_stable(solver: LinearSolver) -> bool | None:
+    if solver.inertia is None:
+        return None
+    return solver.inertia[1] == 0
+
+
+def newton(problem: PressureProblem, x: np.ndarray, p: float, solver: LinearSolver, *,
+           tol: float = 1e-8, maxiter: int = 10) -> tuple[np.ndarray, NewtonInfo]:
+    """Solve ``r(x, p) = 0`` at fixed pressure.
+
+    Converged when ``|r| <= tol * max(|p g|, |f_int|)`` (Euclidean norms, relative to the
+    load). Stops early on NaN/inf or when the residual grows 1e4-fold (a divergent iterate;
+    the caller cuts back). The problem's state must be synchronised with the converged point
+    the iteration starts from (:meth:`PressureProblem.sync`); the residual at ``x`` then
+    advances it by the linearised update.
+    """
+    x = np.array(x, dtype=float)
+    norms: list[float] = []
+    with np.errstate(all="ignore"):
+        for it in range(maxiter + 1):
+            r, g = problem.residual(x, p)
+            nr = float(np.linalg.norm(r))
+            norms.append(nr)
+            scale = max(abs(p) * float(np.linalg.norm(g)), 1e-30)
+            if not math.isfinite(nr):
+                return x, NewtonInfo(False, it, norms, "residual is not finite")
+            if nr <= tol * scale:
+                return x, NewtonInfo(True, it, norms, "converged")
+            if it == maxiter:
+                break
+            if it >= 2 and nr > 1e4 * norms[0]:
+                return x, NewtonInfo(False, it, norms, "diverging")
+            try:
+                K = problem.tangent(x, p)
+                dx = solver.solve(K, -r)
+            except NonFiniteSystemError as exc:
+                return x, NewtonInfo(False, it, norms, str(exc))
+            x = x + dx
+    return x, NewtonInfo(False, maxiter, norms, f"no convergence in {maxiter} iterations")
+
+
+def pressure_control(problem: PressureProblem, p_end: float, solver: LinearSolver, *,
+                     p_start: float = 0.0, dp0: float | None = None,
+                     dp_min: float | None = None, dp_max: float | None = None,
+                     tol: float = 1e-8, maxiter: int = 10, max_steps: int = 500,
+                     on_point: Callable[[PathPoint], bool] | None = None,
+                     run: PathRun | None = None) -> PathRun:
+    """Ramp the pressure from the problem's current state to ``p_end`` with cutbacks.
+
+    Steps grow ×1.5 after an easy step (≤ 4 iterations) and halve on failure; the state of
+    the last converged point is restored before a retry. A secant predictor extrapolates
+    the displacement from the last two points. ``on_point`` is called for every converged
+    point and may return True to stop.
+
+    Returns
+    -------
+    PathRun
+        ``status`` is ``"completed"`` (reached ``p_end``), ``"stopped"`` (by ``on_point``),
+        ``"stalled"`` (step below ``dp_min``: a limit point, or lock-up) or ``"max_steps"``.
+    """
+    t0 = time.perf_counter()
+    run = run if run is not None else PathRun()
+    span = p_end - p_start
+    dp = dp0 if dp0 is not None else span / 10
+    dp_min = dp_min if dp_min is not None else span * 1e-4
+    dp_max = dp_max if dp_max is not None else span / 4
+    x = problem.get_x()
+    problem.sync(x)
+    p = p_start
+    prev: tuple[float, np.ndarray] | None = None
+    steps = 0
+    while p < p_end * (1 - 1e-12) and steps < max_steps:
+        p_try = min(p + dp, p_end)
+        if prev is not None and p - prev[0] > 0:
+            x_pred = x + (p_try - p) / (p - prev[0]) * (x - prev[1])
+        else:
+            x_pred = x
+        run.attempts += 1
+        problem.sync(x)
+        x_new, info = newton(problem, x_pred, p_try, solver, tol=tol, maxiter=maxiter)
+        run.newton_iterations += info.iterations
+        if info.converged:
+            prev = (p, x)
+            x, p = x_new, p_try
+            steps += 1
+            pt = PathPoint(p, x.copy(), info.iterations, _inertia_stable(solver), "pressure")
+            run.points.append(pt)
+            problem.sync(x)
+            if on_point is not None and on_point(pt):
+                run.status = "stopped"
+                break
+            if info.iterations <= 5:
+                dp = min(dp * 1.5, dp_max)
+        else:
+            problem.sync(x)
+            run.cutbacks += 1
+            dp *= 0.5
+            if dp < dp_min:
+                run.status = "stalled"
+                run.message = (f"pressure step fell below {dp_min:.3g} at P = {p:.6g} "
+                               f"({info.message})")
+                break
+    else:
+        run.status = "completed" if p >= p_end * (1 - 1e-12) else "max_steps"
+    problem.sync(x)
+    run.wall_time += time.perf_counter() - t0
+    return run
+
+
+class _Bordered:
+    """contique callbacks: residual, Jacobian blocks and a bordered linear solve.
+
+    contique extends ``f(x, λ) = 0`` by one control equation and solves the (n+1) system
+    ``[[K, f_λ], [e_c, d]]``. We solve it by bordering with two right-hand sides of the
+    symmetric ``K``, so PARDISO's symmetric mode still applies.
+    """
+
+    def __init__(self, problem: PressureProblem, solver: LinearSolver) -> None:
+        self.problem = problem
+        self.solver = solver
+        self._x: np.ndarray | None = None
+        self._g: np.ndarray | None = None
+        self.evaluations = 0
+        self.converged_x = problem.get_x()
+
+    def fun(self, x: np.ndarray, lpf: float, *_: Any) -> np.ndarray:
+        if np.array_equal(x, self.converged_x):
+            # every contique cycle starts from the last converged point: restore its state
+            self.problem.sync(x)
+        with np.errstate(all="ignore"):
+            r, g = self.problem.residual(x, lpf)
+        self._x, self._g = x.copy(), g
+        self.evaluations += 1
+        if not np.all(np.isfinite(r)):
+            return np.full_like(r, np.nan)
+        return r
+
+    def dfdx(self, x: np.ndarray, lpf: float, *_: Any) -> sp.csr_matrix:
+        with np.errstate(all="ignore"):
+            return self.problem.tangent(x, lpf)
+
+    def dfdl(self, x: np.ndarray, lpf: float, *_: Any) -> np.ndarray:
+        if self._x is None or not np.array_equal(self._x, x):
+            self.fun(x, lpf)
+        assert self._g is not None
+        return -self._g
+
+    def solve(self, A: sp.spmatrix, b: np.ndarray) -> np.ndarray:
+        A = A.tocsr()
+        n = A.shape[0] - 1
+        K = A[:n, :n]
+        c = np.asarray(A[:n, n].toarray()).ravel()
+        row = np.asarray(A[n, :].toarray()).ravel()
+        e, d = row[:n], row[n]
+        sol = self.solver.solve(K, np.column_stack([b[:n], c]))
+        a, z = sol[:, 0], sol[:, 1]
+        den = d - e @ z
+        if den == 0 or not math.isfinite(den):
+            raise NonFiniteSystemError("singular bordered system")
+        y = (b[n] - e @ a) / den
+        return np.append(a - z * y, y)
+
+
+def continuation(problem: PressureProblem, p_start: float, solver: LinearSolver, *,
+                 dx_max: float, dp_max: float, max_steps: int = 200, tol: float = 1e-9,
+                 maxiter: int = 8, on_point: Callable[[PathPoint], bool] | None = None,
+                 run: PathRun | None = None, quiet: bool = True) -> PathRun:
+    """Arc-length-like continuation with contique from the problem's current state.
+
+    contique (local parameterisation with switching control components) follows the path
+    through limit points. The falling branch is reported with ``stable=False`` (from the
+    inertia of the tangent with PARDISO, else from the sign of dP along the path).
+
+    Parameters
+    ----------
+    dx_max, dp_max : float
+        Largest increment of any displacement component and of the pressure per step
+        (problem units); contique rebalances them within [1e-6, 10] times these.
+    max_steps : int
+    on_point : callable
+        Called per converged point; return True to stop (e.g. at the target pressure).
+    """
+    contique = require("contique")
+    t0 = time.perf_counter()
+    run = run if run is not None else PathRun()
+    cb = _Bordered(problem, solver)
+    x0 = problem.get_x()
+    last_p = p_start
+    sink = io.StringIO()
+    gen = contique.solve(fun=cb.fun, jac=(cb.dfdx, cb.dfdl), x0=x0, lpf0=p_start,
+                         dxmax=dx_max, dlpfmax=dp_max, maxsteps=max_steps, maxiter=maxiter,
+                         tol=tol, rebalance=True, solve=cb.solve, control0=(-1, 1))
+    first = True
+    x_last = x0
+    with contextlib.redirect_stdout(sink) if quiet else contextlib.nullcontext():
+        try:
+            for res in gen:
+                if first:
+                    first = False
+                    continue
+                run.attempts += 1
+                run.newton_iterations += int(res.niterations)
+                if not res.success:
+                    continue
+                x, p = res.x[:-1].copy(), float(res.x[-1])
+                cb.converged_x = res.x[:-1].copy()
+                stable = _inertia_stable(solver)
+                if stable is None:
+                    stable = p >= last_p
+                last_p = p
+                x_last = x
+                pt = PathPoint(p, x, int(res.niterations), stable, "arc-length")
+                run.points.append(pt)
+                if on_point is not None and on_point(pt):
+                    run.status = "stopped"
+                    break
+            else:
+                run.status = "max_steps" if len(run.points) else "stalled"
+        except NonFiniteSystemError as exc:
+            run.status = "stalled"
+            run.message = f"continuation failed: {exc}"
+    if run.status == "running":
+        run.status = "stalled"
+    problem.sync(x_last)
+    run.wall_time += time.perf_counter() - t0
+    return run
+
+
