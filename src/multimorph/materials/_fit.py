@@ -166,23 +166,27 @@ class FitResult:
 
 # --------------------------------------------------------------------------- kernels
 @cache
-def _kernels(model: str, cases: tuple[str, ...], kind: str) -> tuple[Callable[..., Any], ...]:
-    """Jitted residual and Jacobian for a law, a tuple of cases and a residual kind."""
+def _kernels(model: str, cases: tuple[str, ...], kind: str) -> Callable[..., Any]:
+    """One jitted kernel per law, tuple of cases and residual kind, returning the model
+    stresses, the residual and its Jacobian together (one compilation instead of three)."""
     law = get_law(model)
     names = law.param_names
     fs = [stress_function(law.name, c) for c in cases]
 
-    def residual(x: Any, scale: Any, lams: Any, ps: Any, ws: Any, sref: Any) -> Any:
-        # ws: per-point sqrt(weight), 0 on the padding
+    def stresses(x: Any, scale: Any, lams: Any) -> Any:
         p = {n: x[i] * scale[i] for i, n in enumerate(names)}
-        out = []
-        for f, lam, pd, w in zip(fs, lams, ps, ws, strict=True):
-            m = f(p, lam)
-            den = pd if kind == "relative" else sref
-            out.append(w * (m - pd) / den)
-        return jnp.concatenate(out)
+        return jnp.concatenate([f(p, lam) for f, lam in zip(fs, lams, strict=True)])
 
-    return jax.jit(residual), jax.jit(jax.jacfwd(residual, argnums=0))
+    def residual(x: Any, scale: Any, lams: Any, pd: Any, ws: Any, sref: Any) -> Any:
+        # pd, ws: concatenated data and per-point sqrt(weight) (0 on the padding)
+        den = pd if kind == "relative" else sref
+        return ws * (stresses(x, scale, lams) - pd) / den
+
+    def both(x: Any, scale: Any, lams: Any, pd: Any, ws: Any, sref: Any) -> Any:
+        return (stresses(x, scale, lams), residual(x, scale, lams, pd, ws, sref),
+                jax.jacfwd(residual, argnums=0)(x, scale, lams, pd, ws, sref))
+
+    return jax.jit(both)
 
 
 def _bucket(n: int) -> int:
@@ -376,14 +380,22 @@ def fit_material(
         lower[j] = max(lower[j], jm_min * (1.0 + 1e-4) + 1e-9)
     lower_s, upper_s = lower / scale, upper / scale
 
-    res_fn, jac_fn = _kernels(law.name, cases, residual)
-    args = (jnp.asarray(scale), lams, ps, ws, sref)
+    kernel = _kernels(law.name, cases, residual)
+    args = (jnp.asarray(scale), lams, jnp.concatenate(ps), jnp.concatenate(ws), sref)
+    last: dict[str, Any] = {}
+
+    def evaluate(x: np.ndarray) -> dict[str, Any]:
+        key = np.asarray(x, float).tobytes()
+        if last.get("key") != key:
+            m, r, J = kernel(jnp.asarray(x), *args)
+            last.update(key=key, m=np.asarray(m), r=np.asarray(r), J=np.asarray(J))
+        return last
 
     def fun(x: np.ndarray) -> np.ndarray:
-        return np.asarray(res_fn(jnp.asarray(x), *args))
+        return evaluate(x)["r"]
 
     def jac(x: np.ndarray) -> np.ndarray:
-        return np.asarray(jac_fn(jnp.asarray(x), *args))
+        return evaluate(x)["J"]
 
     mu0 = _mu_estimate(curves)
     starts = [dict(initial)] if initial is not None else _starts(law, mu0, jm_min)
@@ -445,12 +457,12 @@ def fit_material(
     fit_range = (float(min(c.stretch.min() for c in curves)),
                  float(max(c.stretch.max() for c in curves)))
 
-    tmp = Material(law.name, params, name=data_name, convention=(
-        "ogden1972" if law.family == "ogden" else None), break_stretch=break_stretch)
+    m_all = evaluate(x)["m"]
+    offsets = np.cumsum([0, *sizes])
     per_case: dict[str, CaseStats] = {}
     all_rel: list[np.ndarray] = []
-    for c, lam_pad in zip(curves, lams, strict=True):
-        m = np.asarray(stress_function(law.name, c.case)(tmp.params_1972, lam_pad))[: len(c)]
+    for k, c in enumerate(curves):
+        m = m_all[offsets[k]: offsets[k] + len(c)]
         d = c.stress
         err = m - d
         nz = d != 0
@@ -479,7 +491,8 @@ def fit_material(
         + f"; fit_error = relative RMS over {n} points ({', '.join(cases)})",
         note=prov_src.note,
     )
-    material = Material(law.name, params, name=data_name, convention=tmp.convention,
+    material = Material(law.name, params, name=data_name,
+                        convention="ogden1972" if law.family == "ogden" else None,
                         break_stretch=break_stretch, provenance=prov)
     stability = drucker_stability(material, stability_range)
     return FitResult(

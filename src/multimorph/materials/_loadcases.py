@@ -153,7 +153,12 @@ class StabilityReport:
 
 
 @cache
-def _drucker_eigs(model: str, case: str) -> Callable[[dict[str, Any], Any], Any]:
+def _drucker_eigs(model: str) -> Callable[[dict[str, Any], Any], Any]:
+    """Jitted smallest Hessian eigenvalue of W(e1, e2) at log strains ``e`` (shape (N, 2)).
+
+    One kernel per law serves every load case (the case only decides the log strains), so
+    a stability check compiles once per law.
+    """
     law = get_law(model)
 
     def wt(e: Any, p: dict[str, Any]) -> Any:
@@ -163,9 +168,7 @@ def _drucker_eigs(model: str, case: str) -> Callable[[dict[str, Any], Any], Any]
     hess = jax.hessian(wt, argnums=0)
 
     @jax.jit
-    def f(p: dict[str, Any], lam: Any) -> Any:
-        l1, l2, _ = stretches(case, lam)
-        e = jnp.stack([jnp.log(l1), jnp.log(l2 + 0.0 * l1)], axis=-1)
+    def f(p: dict[str, Any], e: Any) -> Any:
         H = jax.vmap(hess, in_axes=(0, None))(e, p)
         # eigenvalues of the symmetric 2x2 Hessians, explicitly
         a, b, c = H[:, 0, 0], H[:, 0, 1], H[:, 1, 1]
@@ -193,27 +196,26 @@ def drucker_stability(
         raise SpecError(f"stretch_range must satisfy 0 < low < 1 < high, got {stretch_range}")
     lam_c = np.geomspace(1.0, lo, n // 2)[1:]
     lam_t = np.geomspace(1.0, hi, n // 2)[1:]
+    # every case and direction in one fixed-size evaluation (points past a Gent lock-up are
+    # replaced by λ = 1 and ignored), so the kernel is traced once per law, not per Jm
+    blocks = [(case, lam) for case in LOAD_CASES for lam in (lam_c, lam_t)]
+    valid, strains = [], []
+    for case, lam in blocks:
+        ok_pts = material.lockup_fraction(*stretches(case, lam)) < 0.999
+        l1, l2, _ = stretches(case, np.where(ok_pts, lam, 1.0))
+        valid.append(ok_pts)
+        strains.append(np.stack([np.log(l1), np.log(l2 + 0.0 * l1)], axis=-1))
+    eig = np.asarray(_drucker_eigs(material.model)(material.params_1972,
+                                                    np.concatenate(strains)))
+    eig = eig.reshape(len(blocks), -1)
     stable: dict[str, bool] = {}
     first: dict[str, tuple[float | None, float | None]] = {}
-    for case in LOAD_CASES:
+    for k, case in enumerate(LOAD_CASES):
         out: list[float | None] = []
-        ok = True
-        for lam in (lam_c, lam_t):
-            frac = material.lockup_fraction(*stretches(case, lam))
-            valid = frac < 0.999
-            if not valid.any():
-                out.append(None)
-                continue
-            # evaluate on a fixed-size array (points past lock-up replaced by λ = 1 and
-            # ignored) so the jitted kernel is not re-traced for every Jm
-            lam_eval = np.where(valid, lam, 1.0)
-            eig = np.asarray(_drucker_eigs(material.model, case)(material.params_1972, lam_eval))
-            bad = np.flatnonzero(valid & ~(eig > 0))
-            if bad.size:
-                ok = False
-                out.append(float(lam[bad[0]]))
-            else:
-                out.append(None)
-        stable[case] = ok
+        for j in (2 * k, 2 * k + 1):
+            lam = blocks[j][1]
+            bad = np.flatnonzero(valid[j] & ~(eig[j] > 0))
+            out.append(float(lam[bad[0]]) if bad.size else None)
+        stable[case] = out[0] is None and out[1] is None
         first[case] = (out[0], out[1])
     return StabilityReport((lo, hi), stable, first)

@@ -29,8 +29,9 @@ __all__ = ["MARECHAL", "MODELS", "STRETCH_MAX", "build", "main"]
 
 #: Upper end of the design range the library is fitted over (-).
 STRETCH_MAX = 4.0
-#: Models fitted to every silicone (Gent first: the default).
-MODELS = ("gent", "yeoh", "reduced-polynomial-6", "neo-hooke", "mooney-rivlin", "ogden-3")
+#: Models fitted to every silicone (Gent first: the default). No Ogden: uniaxial data alone
+#: do not determine its six parameters (the fits end on bounds with huge standard errors).
+MODELS = ("gent", "yeoh", "reduced-polynomial-6", "neo-hooke", "mooney-rivlin")
 
 MARECHAL_DOI = "10.1089/soro.2019.0115"
 MARECHAL_SOURCE = ("Marechal et al., Toward a Common Framework and Database of Materials for "
@@ -70,14 +71,15 @@ def data_dir() -> Path:
     return Path(str(resources.files("multimorph") / "materials" / "data"))
 
 
-def _round(x: Any) -> Any:
-    """Round floats to 10 significant digits (stable JSON across platforms)."""
+def _round(x: Any, digits: int = 10) -> Any:
+    """Round floats to ``digits`` significant digits (stable JSON across platforms);
+    fit statistics (under ``stats``) to 6."""
     if isinstance(x, float):
-        return float(f"{x:.10g}")
+        return float(f"{x:.{digits}g}")
     if isinstance(x, dict):
-        return {k: _round(v) for k, v in x.items()}
+        return {k: _round(v, 6 if k == "stats" else digits) for k, v in x.items()}
     if isinstance(x, list | tuple):
-        return [_round(v) for v in x]
+        return [_round(v, digits) for v in x]
     return x
 
 
