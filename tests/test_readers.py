@@ -6,6 +6,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from multimorph.errors import DataFileError
 from multimorph.materials import LoadCurve, Specimen, read_test_data
@@ -165,3 +167,28 @@ def test_load_curve_validation() -> None:
         LoadCurve("uniaxial", [0.0, 1.1], [1.0, 2.0])
     with pytest.raises(SpecError, match="2 stretches but 1"):
         LoadCurve("uniaxial", [1.0, 1.1], [1.0])
+
+
+_UNITS = {"Pa": 1.0, "kPa": 1e3, "MPa": 1e6}
+
+
+@settings(max_examples=30, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(increments=st.lists(st.floats(1e-3, 0.5), min_size=1, max_size=30),
+       stresses=st.lists(st.floats(-1e3, 1e7), min_size=30, max_size=30),
+       unit=st.sampled_from(sorted(_UNITS)), strain=st.booleans(),
+       delim=st.sampled_from([",", ";", "\t"]))
+def test_plain_csv_round_trip(tmp_path: Path, increments: list[float], stresses: list[float],
+                              unit: str, strain: bool, delim: str) -> None:
+    # property: whatever we write (stretch or strain, any stress unit, any delimiter) reads
+    # back as the same stretches and the same nominal stresses in Pa
+    lam = 1.0 + np.cumsum(increments)
+    p = np.array(stresses[: lam.size])
+    x = lam - 1.0 if strain else lam
+    head = ("strain" if strain else "stretch") + delim + f"nominal stress ({unit})"
+    rows = [f"{float(a)!r}{delim}{float(b) / _UNITS[unit]!r}" for a, b in zip(x, p, strict=True)]
+    f = tmp_path / "round.csv"
+    f.write_text("\n".join([head, *rows]) + "\n")
+    c = read_test_data(f).curves[0]
+    np.testing.assert_allclose(c.stretch, lam, rtol=1e-12)
+    np.testing.assert_allclose(c.stress, p, rtol=1e-12, atol=1e-9)
