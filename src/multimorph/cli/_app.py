@@ -30,6 +30,7 @@ def _register() -> None:
     from multimorph.cli import _simulate
 
     _simulate.register(app)
+    from multimorph.cli import _fem; _fem.register(app)  # noqa: E702, I001
 
 
 def main() -> None:

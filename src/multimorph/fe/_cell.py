@@ -63,6 +63,9 @@ class FESettings:
         stretch if it has one.
     dx_max, dp_max : float
         Continuation increments: displacement (fraction of d) and pressure (fraction of μ).
+    stop_after_limit : bool
+        Stop once the path has passed a pressure maximum (the pressure fell 0.5 % below it);
+        enough to measure a limit-point Pc.
     """
 
     mesh: str | MeshDensity = "coarse"
@@ -77,6 +80,7 @@ class FESettings:
     max_stretch: float | None = None
     dx_max: float = 0.01
     dp_max: float = 0.02
+    stop_after_limit: bool = False
 
     def __post_init__(self) -> None:
         if self.method not in ("auto", "pressure", "arc-length"):
@@ -130,7 +134,9 @@ class _Recorder:
 
     def __init__(self, mesh: CellMesh, problem: PressureProblem, L: float, mu: float,
                  p_max: float, max_volume_ratio: float, max_stretch: float | None,
-                 progress: Callable[[float, int], None] | None) -> None:
+                 progress: Callable[[float, int], None] | None,
+                 stop_after_limit: bool = False) -> None:
+        self.stop_after_limit = stop_after_limit
         self.mesh, self.problem, self.L, self.mu = mesh, problem, L, mu
         self.p_max = p_max
         self.max_volume_ratio = max_volume_ratio
@@ -179,6 +185,11 @@ class _Recorder:
         if self.max_stretch is not None and lam > self.max_stretch:
             self.stop_reason = f"peak stretch exceeded {self.max_stretch:g}"
             return True
+        if self.stop_after_limit:
+            top = max(row["pressure"] for row in self.rows)
+            if self.rows[-1]["pressure"] < 0.995 * top:
+                self.stop_reason = "passed the limit point"
+                return True
         if pt.method == "arc-length" and pt.pressure * self.mu >= self.p_max and len(self.rows) > 2:
             if self.rows[-1]["pressure"] >= self.rows[-2]["pressure"]:
                 self.stop_reason = "reached p_max"
@@ -241,7 +252,8 @@ def simulate_cell(geometry: CellGeometry, settings: FESettings | None = None, *,
     solver = make_solver(s.solver)
     p_max = s.p_max if s.p_max is not None else mu
     max_stretch = s.max_stretch if s.max_stretch is not None else geometry.material.break_stretch
-    rec = _Recorder(mesh, problem, L, mu, p_max, s.max_volume_ratio, max_stretch, progress)
+    rec = _Recorder(mesh, problem, L, mu, p_max, s.max_volume_ratio, max_stretch, progress,
+                    s.stop_after_limit)
     pe = p_max / mu
     run = PathRun()
     if s.method in ("auto", "pressure"):
@@ -253,7 +265,7 @@ def simulate_cell(geometry: CellGeometry, settings: FESettings | None = None, *,
         if run.points:
             problem.set_x(run.points[-1].x)
         more = continuation(problem, p_start, solver, dx_max=s.dx_max, dp_max=s.dp_max,
-                            max_steps=max(s.max_steps - len(run.points), 1), tol=1e-9 * pe,
+                            max_steps=max(s.max_steps - len(run.points), 1),
                             on_point=rec.add)
         run = _merge(run, more)
     if len(rec.rows) < 2:

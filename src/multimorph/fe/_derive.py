@@ -46,6 +46,17 @@ def _first_limit_point(p: np.ndarray) -> int | None:
     return None
 
 
+def _parabolic_peak(v: np.ndarray, p: np.ndarray, i: int) -> float:
+    """Pressure maximum from a parabola P(V) through the three points around index i."""
+    V, P = v[i - 1:i + 2], p[i - 1:i + 2]
+    if len(V) < 3 or len(set(V.tolist())) < 3:
+        return float(p[i])
+    a, b, c = np.polyfit(V - V[1], P, 2)
+    if a >= 0:
+        return float(p[i])
+    return float(max(p[i], c - b * b / (4 * a)))
+
+
 def _derivatives(P: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     s = np.gradient(q, P, edge_order=1) if len(P) > 2 else np.zeros_like(P)
     c = np.gradient(s, P, edge_order=1) if len(P) > 2 else np.zeros_like(P)
@@ -62,7 +73,7 @@ def characteristic_pressures(path: EquilibriumPath, loading: EquilibriumPath | N
     k_at: dict[str, float | None] = {"critical": None, "hardening": None, "failure": None}
     i_lp = _first_limit_point(path.pressure)
     if i_lp is not None:
-        crit, kind = float(path.pressure[i_lp]), "limit_point"
+        crit, kind = _parabolic_peak(path.volume, path.pressure, i_lp), "limit_point"
         k_at["critical"] = float(path.curvature[i_lp])
     elif len(P) >= 4:
         s, _ = _derivatives(P, k)

@@ -90,7 +90,7 @@ def newton(problem: PressureProblem, x: np.ndarray, p: float, solver: LinearSolv
                 return x, NewtonInfo(True, it, norms, "converged")
             if it == maxiter:
                 break
-            if it >= 2 and nr > 1e4 * norms[0]:
+            if it >= 2 and nr > 1e4 * max(norms[0], scale):
                 return x, NewtonInfo(False, it, norms, "diverging")
             try:
                 K = problem.tangent(x, p)
@@ -224,7 +224,7 @@ class _Bordered:
 
 
 def continuation(problem: PressureProblem, p_start: float, solver: LinearSolver, *,
-                 dx_max: float, dp_max: float, max_steps: int = 200, tol: float = 1e-9,
+                 dx_max: float, dp_max: float, max_steps: int = 200, tol: float = 1e-7,
                  maxiter: int = 8, on_point: Callable[[PathPoint], bool] | None = None,
                  run: PathRun | None = None, quiet: bool = True) -> PathRun:
     """Arc-length-like continuation with contique from the problem's current state.
@@ -239,6 +239,9 @@ def continuation(problem: PressureProblem, p_start: float, solver: LinearSolver,
         Largest increment of any displacement component and of the pressure per step
         (problem units); contique rebalances them within [1e-6, 10] times these.
     max_steps : int
+    tol : float
+        Residual tolerance relative to the load ``|g| max(P_start, 10 dp_max)`` (contique
+        tests an absolute norm; too tight a value sits below the round-off floor and stalls).
     on_point : callable
         Called per converged point; return True to stop (e.g. at the target pressure).
     """
@@ -247,11 +250,14 @@ def continuation(problem: PressureProblem, p_start: float, solver: LinearSolver,
     run = run if run is not None else PathRun()
     cb = _Bordered(problem, solver)
     x0 = problem.get_x()
+    problem.sync(x0)
+    _, g0 = problem.residual(x0, p_start)
+    tol_abs = tol * float(np.linalg.norm(g0)) * max(abs(p_start), 10 * dp_max)
     last_p = p_start
     sink = io.StringIO()
     gen = contique.solve(fun=cb.fun, jac=(cb.dfdx, cb.dfdl), x0=x0, lpf0=p_start,
                          dxmax=dx_max, dlpfmax=dp_max, maxsteps=max_steps, maxiter=maxiter,
-                         tol=tol, rebalance=True, solve=cb.solve, control0=(-1, 1))
+                         tol=tol_abs, rebalance=True, solve=cb.solve, control0=(-1, 1))
     first = True
     x_last = x0
     with contextlib.redirect_stdout(sink) if quiet else contextlib.nullcontext():

@@ -1,0 +1,227 @@
+"""FE result files: VTU time series (+ PVD index for ParaView), CSV/JSON, PNG, STEP/STL.
+
+Everything is written into a given folder; the CLI wraps it in
+:func:`multimorph.io.atomic_output_dir`, so an interrupted run leaves nothing half-written.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import csv
+import os
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from multimorph.fe._cell import FEResult
+from multimorph.fe._deps import require
+from multimorph.geometry import CellGeometry
+from multimorph.io import write_json
+
+__all__ = ["export_cell_solid", "summary", "write_fe_outputs"]
+
+_CSV_COLUMNS = [
+    ("pressure_pa", lambda p: p.pressure),
+    ("curvature_1_per_m", lambda p: p.curvature),
+    ("bend_angle_deg", lambda p: np.degrees(p.extra["bend_angle"])),
+    ("twist_rate_rad_per_m", lambda p: p.twist_rate),
+    ("axial_stretch", lambda p: p.axial_stretch),
+    ("chamber_volume_m3", lambda p: p.volume),
+    ("volume_ratio", lambda p: p.extra["volume_ratio"]),
+    ("peak_stretch", lambda p: p.peak_stretch),
+    ("stable", lambda p: p.stable.astype(int)),
+    ("arc_length_step", lambda p: p.extra["arc_length"].astype(int)),
+]
+
+
+def summary(result: FEResult) -> dict[str, Any]:
+    """JSON-able summary: characteristic pressures, final state, solver statistics."""
+    r = result.response
+    p = r.path
+    return {
+        "backend": "fe",
+        "characteristic": r.characteristic.to_dict(),
+        "final": {
+            "pressure_pa": float(p.pressure[-1]),
+            "curvature_1_per_m": float(p.curvature[-1]),
+            "bend_angle_deg": float(np.degrees(p.extra["bend_angle"][-1])),
+            "volume_ratio": float(p.extra["volume_ratio"][-1]),
+            "peak_stretch": float(p.peak_stretch[-1]),
+            "peak_location_m": [float(v) for v in p.extra["peak_location"][-1]],
+        },
+        "max_pressure_pa": float(np.max(p.pressure)),
+        "unstable_points": int(np.sum(~p.stable)),
+        "length_m": r.length,
+        "shear_modulus_pa": r.shear_modulus,
+        "stats": result.stats,
+    }
+
+
+def write_path_csv(result: FEResult, path: Path) -> None:
+    p = result.response.path
+    cols = [(name, np.asarray(f(p))) for name, f in _CSV_COLUMNS]
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow([c[0] for c in cols])
+        for i in range(len(p)):
+            w.writerow([f"{c[1][i]:.8g}" for c in cols])
+
+
+def write_vtu_series(result: FEResult, folder: Path, stem: str = "cell") -> list[str]:
+    """One VTU per path point (deformed mesh, displacement, max principal stretch, region)
+    and a ``.pvd`` collection indexed by pressure (kPa) that ParaView opens as a series."""
+    meshio = require("meshio")
+    m = result.mesh
+    files = []
+    lines = ['<?xml version="1.0"?>',
+             '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">',
+             "  <Collection>"]
+    for i, (u, lam) in enumerate(zip(result.displacements, result.stretch, strict=True)):
+        name = f"{stem}_{i:04d}.vtu"
+        mesh = meshio.Mesh(
+            m.points + u, [("hexahedron", m.cells)],
+            point_data={"displacement": u},
+            cell_data={"max_principal_stretch": [lam], "region": [m.region.astype(np.int32)]},
+        )
+        mesh.write(folder / name, binary=True)
+        p_kpa = float(result.response.path.pressure[i]) / 1e3
+        lines.append(f'    <DataSet timestep="{i}" group="" part="0" file="{name}"'
+                     f' name="P={p_kpa:.4g}kPa"/>')
+        files.append(name)
+    lines += ["  </Collection>", "</VTKFile>"]
+    (folder / f"{stem}.pvd").write_text("\n".join(lines) + "\n")
+    return [f"{stem}.pvd", *files]
+
+
+def plot_curves(result: FEResult, path: Path) -> None:
+    """Pressure against curvature·d, chamber volume ratio and peak stretch (PNG)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    r = result.response
+    p = r.path
+    mu = r.shear_modulus
+    fig, axes = plt.subplots(1, 3, figsize=(12, 3.8), constrained_layout=True)
+    xs = [(p.curvature * r.length, "κ d (-)"), (p.extra["volume_ratio"], "V / V0 (-)"),
+          (p.peak_stretch, "peak principal stretch (-)")]
+    for ax, (x, label) in zip(axes, xs, strict=True):
+        ax.plot(x, p.pressure / mu, "-", color="0.6", lw=1, label="path")
+        st = p.stable
+        ax.plot(np.where(st, x, np.nan), np.where(st, p.pressure / mu, np.nan), "o-", ms=2.5,
+                label="stable")
+        if (~st).any():
+            ax.plot(x[~st], p.pressure[~st] / mu, "x", color="C3", ms=4, label="unstable")
+        ax.set_xlabel(label)
+        ax.set_ylabel("P / μ (-)")
+        ax.grid(alpha=0.3)
+    c = r.characteristic
+    for val, name, ls in ((c.critical, "Pc", "--"), (c.hardening, "Ph", ":")):
+        if val is not None:
+            for ax in axes:
+                ax.axhline(val / mu, color="k", ls=ls, lw=0.8)
+            axes[0].text(0.02, val / mu, f" {name}", va="bottom", fontsize=8,
+                         transform=axes[0].get_yaxis_transform())
+    axes[0].legend(fontsize=8)
+    fig.suptitle(f"FE cell path ({result.stats['nfree']} DOF, {result.stats['solver']})")
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def plot_snapshots(result: FEResult, path: Path, count: int = 4) -> None:
+    """Side views (y–z) of the deformed cell at a few path points, coloured by stretch."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    m = result.mesh
+    n = len(result.displacements)
+    picks = sorted({int(round(i)) for i in np.linspace(0, n - 1, count)})
+    fig, axes = plt.subplots(1, len(picks), figsize=(3.2 * len(picks), 3.2),
+                             constrained_layout=True, squeeze=False)
+    cen0 = m.points[m.cells].mean(axis=1)
+    for ax, i in zip(axes[0], picks, strict=True):
+        x = m.points + result.displacements[i]
+        cen = x[m.cells].mean(axis=1)
+        front = cen0[:, 0] < cen0[:, 0].min() + 1e-9 + (cen0[:, 0].max() - cen0[:, 0].min()) / 3
+        sc = ax.scatter(cen[front, 1] * 1e3, cen[front, 2] * 1e3, c=result.stretch[i][front],
+                        s=6, cmap="viridis", vmin=1.0)
+        ax.set_aspect("equal")
+        ax.set_title(f"P = {result.response.path.pressure[i] / 1e3:.3g} kPa", fontsize=9)
+        ax.set_xlabel("y (mm)")
+        ax.set_ylabel("z (mm)")
+    fig.colorbar(sc, ax=axes[0].tolist(), label="max principal stretch", shrink=0.8)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+@contextlib.contextmanager
+def _quiet_stdout() -> Iterator[None]:
+    """Silence C-level stdout (OpenCASCADE's STEP writer prints banners on it)."""
+    try:
+        fd = sys.stdout.fileno()
+    except (AttributeError, OSError, ValueError):
+        yield
+        return
+    sys.stdout.flush()
+    saved = os.dup(fd)
+    try:
+        with open(os.devnull, "w") as null:
+            os.dup2(null.fileno(), fd)
+            yield
+    finally:
+        os.dup2(saved, fd)
+        os.close(saved)
+
+
+def export_cell_solid(geometry: CellGeometry, path: Path) -> None:
+    """Write the cell solid (box minus chamber) as STEP or STL (by suffix) with gmsh OCC."""
+    gmsh = require("gmsh")
+    g = geometry
+    initialised = gmsh.isInitialized()
+    if not initialised:
+        gmsh.initialize(interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("cell")
+        occ = gmsh.model.occ
+        s = 1e3  # CAD in mm
+        outer = occ.addBox(0, 0, 0, g.width * s, g.length * s, g.height * s)
+        inner = occ.addBox(g.ws * s, g.df * s, g.hb * s, g.wc * s, g.dc * s, g.hc * s)
+        occ.cut([(3, outer)], [(3, inner)])
+        occ.synchronize()
+        if Path(path).suffix.lower() == ".stl":
+            gmsh.option.setNumber("Mesh.MeshSizeMax", min(g.ht, g.ws, g.df, g.hb) * s)
+            gmsh.model.mesh.generate(2)
+        with _quiet_stdout():
+            gmsh.write(str(path))
+        gmsh.model.remove()
+    finally:
+        if not initialised:
+            gmsh.finalize()
+
+
+def write_fe_outputs(result: FEResult, folder: Path, *, vtu: bool = True, plots: bool = True,
+                     cad: bool = True) -> list[str]:
+    """Write every FE output into ``folder``; returns the file names."""
+    folder = Path(folder)
+    files = ["summary.json", "path.csv"]
+    write_json(folder / "summary.json", {**summary(result),
+                                         "path": result.response.path.to_dict()})
+    write_path_csv(result, folder / "path.csv")
+    if plots:
+        plot_curves(result, folder / "curves.png")
+        plot_snapshots(result, folder / "snapshots.png")
+        files += ["curves.png", "snapshots.png"]
+    if vtu:
+        files += write_vtu_series(result, folder)
+    if cad:
+        export_cell_solid(result.mesh.geometry, folder / "cell.step")
+        export_cell_solid(result.mesh.geometry, folder / "cell.stl")
+        files += ["cell.step", "cell.stl"]
+    return files
