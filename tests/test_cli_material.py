@@ -135,3 +135,17 @@ def test_demo_on_two_materials(app: typer.Typer, runner: CliRunner, tmp_path: Pa
     assert sorted(p.name for p in out.iterdir()) == ["report.json", "report.md",
                                                      "silicone_fits.png"]
     assert "| rtv615 |" in (out / "report.md").read_text()
+
+
+def test_fit_force_file_with_specimen_options(app: typer.Typer, runner: CliRunner,
+                                              tmp_path: Path) -> None:
+    # neo-Hookean data as force-displacement of a 10 mm x 2 mm x 50 mm specimen
+    lam = [1 + 0.1 * i for i in range(1, 25)]
+    rows = "".join(f"{50 * (x - 1):.6f},{20e-6 * 40e3 * (x - x**-2):.8f}\n" for x in lam)
+    f = tmp_path / "pull.csv"
+    f.write_text("displacement (mm),force (N)\n" + rows)
+    r = runner.invoke(app, ["material", "fit", str(f), "--model", "neo-hooke", "--json",
+                            "--gauge-length", "50 mm", "--width", "10 mm", "--thickness",
+                            "2 mm", "--out", str(tmp_path / "o")])
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.stdout)["params"]["mu"] == pytest.approx(40e3, rel=1e-6)

@@ -192,3 +192,14 @@ def test_plain_csv_round_trip(tmp_path: Path, increments: list[float], stresses:
     c = read_test_data(f).curves[0]
     np.testing.assert_allclose(c.stretch, lam, rtol=1e-12)
     np.testing.assert_allclose(c.stress, p, rtol=1e-12, atol=1e-9)
+
+
+def test_force_file_specimen_from_comments(tmp_path: Path) -> None:
+    f = _write(tmp_path, "# specimen gauge length: 66 mm\n# width = 1 cm\n# thickness: 2 mm\n"
+                         "displacement (mm),force (N)\n0,0\n33,20\n")
+    c = read_test_data(f).curves[0]
+    assert c.stretch.tolist() == pytest.approx([1.0, 1.5])
+    assert c.stress[1] == pytest.approx(20 / 20e-6)
+    bad = _write(tmp_path, "# width = 1 kg\ndisplacement (mm),force (N)\n0,0\n33,20\n", "b.csv")
+    with pytest.raises(DataFileError, match=r"b\.csv, line 1: width"):
+        read_test_data(bad)

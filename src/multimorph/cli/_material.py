@@ -141,6 +141,13 @@ def material_fit(
                         ] = "relative",
     fmt: Annotated[str, typer.Option("--format", help="auto, marechal, plain or force.")
                    ] = "auto",
+    gauge_length: Annotated[str | None, typer.Option(
+        help="Force files: gauge length with unit (default from the file's comments, else "
+             "ASTM D412 die C: 33 mm).")] = None,
+    width: Annotated[str | None, typer.Option(
+        help="Force files: specimen width with unit (default 6 mm).")] = None,
+    thickness: Annotated[str | None, typer.Option(
+        help="Force files: specimen thickness with unit (default 3 mm).")] = None,
     out: Annotated[Path | None, typer.Option(
         "--out", "-o", help="Output folder (default multimorph-out/fit-<file stem>).")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON (SI units).")] = False,
@@ -148,12 +155,24 @@ def material_fit(
     """Fit a hyperelastic law to tensile data; write fit.json and fit.png to a folder.
 
     Example: multimorph material fit dragon_skin_30.csv --model gent --range 4 --json
+
+    Force-displacement files: multimorph material fit pull.csv --gauge-length "25 mm"
     """
     from multimorph.io import atomic_output_dir, write_json
     from multimorph.materials import fit_material, read_test_data
 
     with handle_errors(as_json):
-        data = read_test_data(file, case=case, format=fmt)
+        specimen = None
+        dims = {"gauge_length": gauge_length, "width": width, "thickness": thickness}
+        if any(v is not None for v in dims.values()):
+            from multimorph.materials import Specimen
+            from multimorph.units import to_si
+
+            base = Specimen()
+            specimen = Specimen(**{k: getattr(base, k) if v is None else
+                                   to_si(v, "m", field=f"--{k.replace('_', '-')}")
+                                   for k, v in dims.items()})
+        data = read_test_data(file, case=case, format=fmt, specimen=specimen)
         res = fit_material(model, data, order=order, residual=residual,
                            stretch_range=stretch_max)
         folder = out if out is not None else Path("multimorph-out") / f"fit-{file.stem}"

@@ -212,7 +212,9 @@ def read_test_data(
     format : {"auto", "marechal", "plain", "force"}
         File format; ``"auto"`` recognises a Marechal header or a force column.
     specimen : Specimen, optional
-        Specimen dimensions for ``force`` files (default ASTM D412 die C).
+        Specimen dimensions for ``force`` files. Default: comment lines of the file such as
+        ``# gauge length: 25 mm``, ``# width = 4 mm``, ``# thickness: 2 mm``, and for what
+        they leave out ASTM D412 die C (33 mm, 6 mm, 3 mm).
 
     Returns
     -------
@@ -246,7 +248,8 @@ def read_test_data(
     if format == "marechal":
         return _read_marechal(p, lines, case)
     if format == "force":
-        return _read_columns(p, lines, case, specimen or Specimen(), force=True)
+        return _read_columns(p, lines, case, specimen or _specimen_from_comments(p, lines),
+                             force=True)
     return _read_columns(p, lines, case, None, force=False)
 
 
@@ -430,6 +433,30 @@ def _case_from_stem(p: Path) -> str | None:
         return canonical_case(p.stem)
     except SpecError:
         return None
+
+
+_SPECIMEN_KEYS = {"gauge length": "gauge_length", "gauge_length": "gauge_length",
+                  "length": "gauge_length", "width": "width", "thickness": "thickness"}
+
+
+def _specimen_from_comments(p: Path, lines: list[str]) -> Specimen:
+    """Specimen dimensions from ``# key: value`` comment lines (defaults: die C)."""
+    from multimorph.units import to_si
+
+    found: dict[str, float] = {}
+    for i, line in enumerate(lines):
+        m = re.match(r"\s*#\s*(?:specimen\s+)?([A-Za-z _]+?)\s*[:=]\s*(.+?)\s*$", line)
+        if not m or m.group(1).strip().lower() not in _SPECIMEN_KEYS:
+            continue
+        key = _SPECIMEN_KEYS[m.group(1).strip().lower()]
+        try:
+            found[key] = to_si(m.group(2), "m", field=key.replace("_", " "))
+        except SpecError as exc:
+            raise DataFileError(p, str(exc), i + 1) from None
+    try:
+        return Specimen(**found)
+    except SpecError as exc:
+        raise DataFileError(p, str(exc)) from None
 
 
 def _sniff_delimiter(header: str) -> str:
