@@ -286,3 +286,22 @@ def test_short_batches_are_padded_for_jitted_backends_and_padding_dropped(
     for i in table.valid_indices:
         ref = SphereBackend._one(table.cells[i], 200e3, 60).characteristic.critical
         assert ds["critical_pressure"].values[i] == ref
+
+
+@pytest.mark.slow
+def test_fe_backend_one_design_per_task(tmp_path: Path) -> None:
+    pytest.importorskip("felupe")
+    spec = write_spec(tmp_path, num=1)  # ht/d = 0.02: 3 designs, 2 valid
+    text = spec.read_text().replace('"test_sweep_analytic:SphereBackend"', '"fe"')
+    text = text.replace('pmax = "200 kPa"', 'pmax = "10 kPa"').replace(
+        "values = [0.1, 0.15, 0.3]", "values = [0.1, 0.3]")
+    spec.write_text(text + '\n[sweep.options]\nmesh = "coarse"\n')
+    s = run_sweep(spec, tmp_path / "out", scheduler="sync")
+    assert (s.n_designs, s.n_invalid, s.n_ok) == (2, 1, 1), s.failed
+    ds = open_results(tmp_path / "out")
+    assert ds.attrs["backend"] == "fe"
+    n = int(ds["n_points"].values[0])
+    assert n > 2 and ds["curve_pressure"].values[0, n - 1] == pytest.approx(10e3)
+    spec.write_text(text + "\n[sweep.options]\nmesh_size = 1\n")
+    with pytest.raises(SpecError, match=r"sweep\.options: not an FE setting"):
+        run_sweep(spec, tmp_path / "out2", scheduler="sync")
