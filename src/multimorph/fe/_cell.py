@@ -158,6 +158,8 @@ class _Recorder:
         line = m.bend_line
         kappa = circle_fit_curvature(x[line, 1], x[line, 2])
         bend, twist = bend_and_twist(m.points[m.end_face], x[m.end_face])
+        if m.half:
+            twist = 0.0  # zero by the mirror symmetry (a half section's fit is not)
         vol = chamber_volume(x, m.chamber_faces, mirror_x=g.width / 2 if m.half else None)
         F = self.problem.deformation_gradient()
         lam, _, cell = peak_stretch(F)
@@ -259,6 +261,7 @@ def simulate_cell(geometry: CellGeometry, settings: FESettings | None = None, *,
     if s.method in ("auto", "pressure"):
         run = pressure_control(problem, pe, solver, dp0=pe / 20, dp_min=pe / 400,
                                dp_max=pe / 8, tol=s.tol, max_steps=s.max_steps,
+                               maxiter=8, max_cutbacks=3 if s.method == "auto" else None,
                                on_point=rec.add)
     if s.method == "arc-length" or (s.method == "auto" and run.status == "stalled"):
         p_start = run.points[-1].pressure if run.points else 0.0

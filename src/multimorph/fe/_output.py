@@ -141,7 +141,7 @@ def plot_snapshots(result: FEResult, path: Path, count: int = 4) -> None:
 
     m = result.mesh
     n = len(result.displacements)
-    picks = sorted({int(round(i)) for i in np.linspace(0, n - 1, count)})
+    picks = sorted({int(np.rint(i)) for i in np.linspace(0, n - 1, count)})
     fig, axes = plt.subplots(1, len(picks), figsize=(3.2 * len(picks), 3.2),
                              constrained_layout=True, squeeze=False)
     cen0 = m.points[m.cells].mean(axis=1)

@@ -105,6 +105,7 @@ def pressure_control(problem: PressureProblem, p_end: float, solver: LinearSolve
                      p_start: float = 0.0, dp0: float | None = None,
                      dp_min: float | None = None, dp_max: float | None = None,
                      tol: float = 1e-8, maxiter: int = 10, max_steps: int = 500,
+                     max_cutbacks: int | None = None,
                      on_point: Callable[[PathPoint], bool] | None = None,
                      run: PathRun | None = None) -> PathRun:
     """Ramp the pressure from the problem's current state to ``p_end`` with cutbacks.
@@ -112,7 +113,9 @@ def pressure_control(problem: PressureProblem, p_end: float, solver: LinearSolve
     Steps grow ×1.5 after an easy step (≤ 4 iterations) and halve on failure; the state of
     the last converged point is restored before a retry. A secant predictor extrapolates
     the displacement from the last two points. ``on_point`` is called for every converged
-    point and may return True to stop.
+    point and may return True to stop. With ``max_cutbacks`` the ramp also counts as stalled
+    after that many consecutive failures (hand over to continuation early instead of
+    halving the step down to ``dp_min``).
 
     Returns
     -------
@@ -131,6 +134,7 @@ def pressure_control(problem: PressureProblem, p_end: float, solver: LinearSolve
     p = p_start
     prev: tuple[float, np.ndarray] | None = None
     steps = 0
+    in_row = 0
     while p < p_end * (1 - 1e-12) and steps < max_steps:
         p_try = min(p + dp, p_end)
         if prev is not None and p - prev[0] > 0:
@@ -142,6 +146,7 @@ def pressure_control(problem: PressureProblem, p_end: float, solver: LinearSolve
         x_new, info = newton(problem, x_pred, p_try, solver, tol=tol, maxiter=maxiter)
         run.newton_iterations += info.iterations
         if info.converged:
+            in_row = 0
             prev = (p, x)
             x, p = x_new, p_try
             steps += 1
@@ -156,8 +161,9 @@ def pressure_control(problem: PressureProblem, p_end: float, solver: LinearSolve
         else:
             problem.sync(x)
             run.cutbacks += 1
+            in_row += 1
             dp *= 0.5
-            if dp < dp_min:
+            if dp < dp_min or (max_cutbacks is not None and in_row >= max_cutbacks):
                 run.status = "stalled"
                 run.message = (f"pressure step fell below {dp_min:.3g} at P = {p:.6g} "
                                f"({info.message})")

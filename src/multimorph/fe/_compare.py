@@ -1,0 +1,102 @@
+"""ROM vs FE on one cell: Pc, Ph and κ(P) side by side with relative differences."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from multimorph.errors import MultimorphError
+from multimorph.geometry import CellGeometry
+from multimorph.response import Response
+
+__all__ = ["Comparison", "compare_cell", "compare_responses"]
+
+
+def _rel(a: float | None, b: float | None) -> float | None:
+    if a is None or b is None or b == 0:
+        return None
+    return (a - b) / b
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """Reduced model against FE for one cell (SI units; relative differences (rom − fe)/fe).
+
+    Attributes
+    ----------
+    pc_rom, pc_fe, ph_rom, ph_fe : float or None
+        Critical and hardening pressures (Pa).
+    pc_rel, ph_rel : float or None
+    pressure : ndarray
+        Common pressures of the κ comparison (Pa), within both observed loading curves.
+    kappa_rom, kappa_fe : ndarray
+        Curvature (1/m) on the observed loading curves at ``pressure``.
+    kappa_rel_max : float or None
+        Largest |κ_rom − κ_fe| relative to the largest |κ_fe| on the common range.
+    """
+
+    pc_rom: float | None
+    pc_fe: float | None
+    ph_rom: float | None
+    ph_fe: float | None
+    pc_rel: float | None
+    ph_rel: float | None
+    pressure: np.ndarray
+    kappa_rom: np.ndarray
+    kappa_fe: np.ndarray
+    kappa_rel_max: float | None
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "critical_pressure": {"rom": self.pc_rom, "fe": self.pc_fe, "rel": self.pc_rel},
+            "hardening_pressure": {"rom": self.ph_rom, "fe": self.ph_fe, "rel": self.ph_rel},
+            "kappa": {"pressure": self.pressure.tolist(), "rom": self.kappa_rom.tolist(),
+                      "fe": self.kappa_fe.tolist(), "rel_max": self.kappa_rel_max},
+            "meta": self.meta,
+        }
+
+
+def compare_responses(rom: Response, fe: Response, n: int = 25) -> Comparison:
+    """Compare two responses of the same cell (any two backends)."""
+    cr, cf = rom.characteristic, fe.characteristic
+    lr, lf = rom.loading, fe.loading
+    hi = min(float(np.max(lr.pressure)), float(np.max(lf.pressure)))
+    P = np.linspace(0.0, hi, n)
+    kr = np.interp(P, lr.pressure, lr.curvature)
+    kf = np.interp(P, lf.pressure, lf.curvature)
+    scale = float(np.max(np.abs(kf))) if len(kf) else 0.0
+    krel = float(np.max(np.abs(kr - kf)) / scale) if scale > 0 else None
+    return Comparison(cr.critical, cf.critical, cr.hardening, cf.hardening,
+                      _rel(cr.critical, cf.critical), _rel(cr.hardening, cf.hardening),
+                      P, kr, kf, krel)
+
+
+def compare_cell(geometry: CellGeometry, p_max: float, fe_settings: Any = None) -> Comparison:
+    """Run the reduced model (:func:`multimorph.rom.simulate_cell`) and FE on ``geometry``."""
+    import time
+
+    from multimorph.fe._cell import FESettings, simulate_cell
+
+    try:
+        from multimorph.rom import simulate_cell as rom_simulate
+    except ImportError as exc:
+        raise MultimorphError(f"the reduced model (multimorph.rom) is not available: {exc}"
+                              ) from exc
+    t = time.perf_counter()
+    rom = rom_simulate(geometry, p_max)
+    t_rom = time.perf_counter() - t
+    from dataclasses import replace
+
+    s = fe_settings if fe_settings is not None else FESettings()
+    s = replace(s, p_max=p_max)
+    t = time.perf_counter()
+    fe = simulate_cell(geometry, s)
+    t_fe = time.perf_counter() - t
+    c = compare_responses(rom, fe.response)
+    return Comparison(**{**c.__dict__, "meta": {"rom_time": t_rom, "fe_time": t_fe,
+                                                  "fe_dof": fe.stats["nfree"],
+                                                  "fe_status": fe.stats["stop_reason"]
+                                                  or fe.stats["status"]}})

@@ -1,0 +1,103 @@
+"""FE unit cell: ballooning into hardening with continuation, mesh convergence of Pc, CLI."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("felupe")
+pytest.importorskip("contique")
+
+from multimorph.fe import FESettings, MeshDensity, simulate_cell
+from multimorph.geometry import CellGeometry
+from multimorph.materials import Material
+
+pytestmark = pytest.mark.slow
+
+MU = 1.0e5
+
+
+def _cell(model: str, **params: float) -> CellGeometry:
+    """A small cell (10 × 8 × 6 mm, 1 mm top wall) with a 10× stiffer bottom layer."""
+    wall = Material(model, {"mu": MU, **params})
+    bottom = Material(model, {"mu": 10 * MU, **params})
+    return CellGeometry(10e-3, 8e-3, 6e-3, 1e-3, 1.5e-3, 1.5e-3, 1.5e-3, material=wall,
+                        bottom_material=bottom)
+
+
+def test_ballooning_into_hardening_with_continuation() -> None:
+    """Gent walls: pressure steps stall in the ballooning, contique carries the path on
+    into the strain-hardening plateau up to p_max; the whole path is in the result."""
+    g = CellGeometry(20e-3, 10e-3, 8e-3, 1e-3, 2e-3, 2e-3, 2e-3,
+                     material=Material("gent", {"mu": MU, "jm": 30.0}),
+                     bottom_material=Material("gent", {"mu": 10 * MU, "jm": 30.0}))
+    r = simulate_cell(g, FESettings(mesh="coarse", p_max=0.5 * MU))
+    path = r.response.path
+    assert r.response.backend == "fe"
+    assert r.stats["stop_reason"] == "reached p_max"
+    assert path.pressure[-1] >= 0.5 * MU
+    assert path.extra["arc_length"].any()  # continuation took over after the stall
+    c = r.response.characteristic
+    assert c.critical is not None and c.hardening is not None
+    assert 0.2 * MU < c.critical < c.hardening < 0.5 * MU
+    # ballooning: the chamber grows several-fold between Pc and the end
+    v = path.extra["volume_ratio"]
+    assert v[-1] > 3 * np.interp(c.critical, path.pressure, v)
+    # hardening plateau: dκ/dP at the end is a small fraction of its peak
+    k, p = path.curvature, path.pressure
+    slope = np.gradient(k, p)
+    assert slope[-1] < 0.25 * slope.max()
+    # bending with the stiff bottom on the inside; twist-free by symmetry
+    assert k[-1] * g.length > 0.5
+    assert np.allclose(path.twist_rate, 0.0, atol=1e-9)
+    # the FE arrays for the outputs have one row per path point
+    assert r.displacements.shape[0] == len(path) == r.stretch.shape[0]
+
+
+def test_mesh_convergence_of_limit_pressure() -> None:
+    """Neo-Hookean walls give a true limit point; its pressure converges monotonically
+    under refinement (1, 2, 3 elements through the walls; in-plane size d/5, d/8, d/12):
+    the successive differences shrink (a Cauchy sequence) and the sequence is monotone."""
+    g = _cell("neo-hooke")
+    pcs = []
+    for dens in (MeshDensity(1, length_fraction=1 / 5), MeshDensity(2, length_fraction=1 / 8),
+                 MeshDensity(3, length_fraction=1 / 12)):
+        r = simulate_cell(g, FESettings(mesh=dens, p_max=MU, stop_after_limit=True))
+        c = r.response.characteristic
+        assert c.critical_kind == "limit_point"
+        assert (~r.response.path.stable).any() or r.response.path.pressure[-1] < c.critical
+        pcs.append(c.critical)
+    d1, d2 = pcs[0] - pcs[1], pcs[1] - pcs[2]
+    assert d1 > 0 and d2 > 0  # monotone: coarse meshes are too stiff
+    assert d2 < d1  # Cauchy: successive differences shrink
+    assert abs(d2) / pcs[2] < 0.05
+
+
+def test_cli_fem_writes_outputs(tmp_path: Path) -> None:
+    from typer.testing import CliRunner
+
+    from multimorph.cli._app import _register, app
+
+    _register()
+    spec = tmp_path / "cell.toml"
+    spec.write_text(
+        '[cell]\nlength = "10 mm"\nwidth = "8 mm"\nheight = "6 mm"\ntop_wall = "1 mm"\n'
+        'bottom_wall = "1.5 mm"\nside_wall = "1.5 mm"\nend_wall = "1.5 mm"\n'
+        '[cell.material]\nmodel = "gent"\nmu = "100 kPa"\njm = 30\n'
+        '[cell.bottom_material]\nmodel = "gent"\nmu = "1 MPa"\njm = 30\n')
+    out = tmp_path / "out"
+    res = CliRunner().invoke(app, ["fem", str(spec), "--element-size", "2 mm", "--pmax",
+                                   "15 kPa", "--out", str(out), "--json"])
+    assert res.exit_code == 0, res.output
+    info = json.loads(res.output)
+    assert info["final"]["pressure_pa"] == pytest.approx(15e3)
+    for name in ("summary.json", "path.csv", "curves.png", "cell.pvd", "cell_0000.vtu",
+                 "cell.step", "cell.stl"):
+        assert (out / name).is_file(), name
+    assert not list(tmp_path.glob(".out.tmp-*"))  # the temporary folder is gone
+    bad = CliRunner().invoke(app, ["fem", str(spec), "--mesh", "huge", "--out",
+                                   str(tmp_path / "bad")])
+    assert bad.exit_code == 2 and not (tmp_path / "bad").exists()

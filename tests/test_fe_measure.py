@@ -1,0 +1,69 @@
+"""Measurements from node coordinates (chamber volume, circle fit, section rotation)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+pytest.importorskip("felupe")
+
+from multimorph.fe import (
+    bend_and_twist,
+    cell_mesh,
+    chamber_volume,
+    circle_fit_curvature,
+)
+from multimorph.geometry import CellGeometry
+from multimorph.materials import Material
+
+GEOM = CellGeometry(20e-3, 10e-3, 8e-3, 1e-3, 2e-3, 2e-3, 2e-3,
+                    material=Material("neo-hooke", {"mu": 1e5}))
+
+
+@pytest.mark.parametrize("half", [True, False])
+@pytest.mark.parametrize("preset", ["coarse", "medium"])
+def test_reference_chamber_volume_and_tags(half: bool, preset: str) -> None:
+    m = cell_mesh(GEOM, preset, half=half)
+    V = chamber_volume(m.points, m.chamber_faces, mirror_x=GEOM.width / 2 if half else None)
+    assert V == pytest.approx(GEOM.wc * GEOM.hc * GEOM.dc, rel=1e-12)
+    # walls fall on grid lines: every bottom-layer cell lies below z = hb
+    cen = m.points[m.cells].mean(axis=1)
+    assert np.all((cen[:, 2] < GEOM.hb) == (m.region == 1))
+    assert np.all(m.points[m.clamped, 1] == 0.0)
+    assert np.all(np.diff(m.points[m.bend_line, 1]) > 0)
+
+
+def test_volume_of_moved_mesh_is_exact_for_affine_maps() -> None:
+    m = cell_mesh(GEOM, "coarse", half=False)
+    F = np.array([[1.2, 0.1, 0.0], [0.0, 0.9, 0.2], [0.05, 0.0, 1.1]])
+    x = m.points @ F.T
+    V = chamber_volume(x, m.chamber_faces)
+    assert V == pytest.approx(np.linalg.det(F) * GEOM.wc * GEOM.hc * GEOM.dc, rel=1e-12)
+
+
+def test_circle_fit_recovers_radius_and_sign() -> None:
+    R = 0.05
+    t = np.linspace(0.0, 0.8, 17)
+    y, z = R * np.sin(t), -(R - R * np.cos(t))  # turns towards -z: top outward, κ > 0
+    assert circle_fit_curvature(y, z) == pytest.approx(1 / R, rel=1e-10)
+    assert circle_fit_curvature(y, -z) == pytest.approx(-1 / R, rel=1e-10)
+    assert circle_fit_curvature(t, 0 * t) == 0.0
+
+
+def test_bend_and_twist_of_a_rigid_rotation() -> None:
+    rng = np.random.default_rng(1)
+    X = rng.random((20, 3))
+    th, ps = 0.4, 0.25
+
+    def rot(axis: int, a: float) -> np.ndarray:
+        c, s = np.cos(a), np.sin(a)
+        i, j = [k for k in range(3) if k != axis]
+        R = np.eye(3)
+        R[i, i], R[i, j], R[j, i], R[j, j] = c, -s, s, c
+        return R
+
+    # twist about y first, then bend about x (towards -z for a positive angle)
+    R = rot(0, -th) @ rot(1, ps)
+    bend, twist = bend_and_twist(X, X @ R.T + 0.3)
+    assert bend == pytest.approx(th, abs=1e-12)
+    assert abs(twist) == pytest.approx(ps, abs=1e-12)
