@@ -1,0 +1,163 @@
+"""``multimorph design``: from a target sequence of motions to a device that does it.
+
+Exit status: 0 when a design meets every target (files written), 3 when the target is
+infeasible (the report explaining which constraint binds is still written, and ``--json``
+prints ``"feasible": false`` with the explanation), 2 on a malformed spec or a missing model.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from multimorph.cli._common import console, emit_json, err_console, handle_errors
+
+__all__ = ["EXIT_INFEASIBLE", "design_command", "register"]
+
+EXIT_INFEASIBLE = 3
+
+
+def design_command(
+    target: Annotated[Path, typer.Argument(help="Target spec (TOML): [[stage]], [constraints].")],
+    out: Annotated[Path | None, typer.Option(
+        "--out", "-o", help="Output folder (default multimorph-out/design-<target name>).")
+                   ] = None,
+    seed: Annotated[int, typer.Option(help="Random seed (search and Monte Carlo).")] = 0,
+    budget: Annotated[int, typer.Option(min=1, help="Cell-model evaluations for the search.")
+                      ] = 1200,
+    population: Annotated[int, typer.Option(min=4, help="Differential-evolution population.")
+                          ] = 24,
+    robustness: Annotated[int, typer.Option(
+        min=0, help="Monte Carlo samples for the robustness of the best design (0: skip).")
+                          ] = 64,
+    wall_tolerance: Annotated[str, typer.Option(
+        help="Fabrication tolerance on every wall, ±, e.g. '0.1 mm'.")] = "0.1 mm",
+    default_cv: Annotated[float, typer.Option(
+        help="Coefficient of variation of material parameters without fit errors.")] = 0.05,
+    robust: Annotated[bool, typer.Option(
+        "--robust", help="Rank the shortlist by a robust objective (Monte Carlo).")] = False,
+    verify_fe: Annotated[bool, typer.Option(
+        "--verify-fe", help="Check the best design's cells with the FE model.")] = False,
+    as_json: Annotated[bool, typer.Option("--json", help="Print the JSON report.")] = False,
+) -> None:
+    """Design a device whose predicted sequence of motions meets a target.
+
+    Example: multimorph design examples/target_gripper.toml --seed 1 --out out/gripper
+    """
+    from multimorph.design import DesignSettings, design, target_from_spec
+    from multimorph.design import robustness as mc
+    from multimorph.design._report import (
+        convergence_figure,
+        device_toml,
+        report_dict,
+        report_markdown,
+        robustness_figure,
+        sequence_figure,
+    )
+    from multimorph.design._verify import fe_available, verify_fe
+    from multimorph.errors import MultimorphError, SpecError
+    from multimorph.io import atomic_output_dir, load_toml, write_json
+    from multimorph.units import to_si
+
+    with handle_errors(as_json):
+        spec = target_from_spec(load_toml(target))
+        tol = to_si(wall_tolerance, "m", field="--wall-tolerance")
+        if not tol >= 0:
+            raise SpecError(f"--wall-tolerance: must be non-negative, got {wall_tolerance!r}")
+        if not default_cv >= 0:
+            raise SpecError(f"--default-cv: must be non-negative, got {default_cv}")
+        if verify_fe:
+            ok, why = fe_available()
+            if not ok:
+                raise MultimorphError(f"--verify-fe: {why}")
+        settings = DesignSettings(budget=budget, population=population, seed=seed,
+                                  robust_samples=(16 if robust else 0), wall_tolerance=tol,
+                                  default_cv=default_cv)
+        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
+
+        with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
+                      console=err_console, transient=True, disable=as_json) as bar:
+            task = bar.add_task("designing", total=budget)
+
+            def progress(done: int, total: int, phase: str) -> None:
+                bar.update(task, completed=min(done, total), description=f"search: {phase}")
+
+            result = design(spec, settings=settings, progress=progress)
+            rob = None
+            if result.best is not None and result.feasible and robustness > 0:
+                bar.update(task, description="robustness (Monte Carlo)")
+                rob = mc(spec, result.best, n_samples=robustness, seed=seed,
+                         wall_tolerance=tol, default_cv=default_cv)
+        sequence: dict[str, Any] | None = None
+        dev_result = None
+        best = result.best
+        if best is not None and best.device is not None:
+            from multimorph.device import simulate_device
+
+            dev_result = simulate_device(best.device)
+            sequence = dev_result.sequence.to_dict()
+        verification = None
+        if verify_fe and best is not None and result.feasible:
+            with console.status("FE verification of the best design…", spinner="dots"):
+                verification = verify_fe(spec, best)
+        folder = out if out is not None else Path("multimorph-out") / f"design-{target.stem}"
+        report = report_dict(result, rob, sequence, verification)
+        files = ["report.json", "report.md", "convergence.png"]
+        with atomic_output_dir(folder) as tmp:
+            if best is not None and best.device is not None:
+                name = "device.toml" if result.feasible else "closest_device.toml"
+                header = (f"designed by 'multimorph design {target.name} --seed {seed} "
+                          f"--budget {budget}'" + ("" if result.feasible else
+                                                   "\nINFEASIBLE target: closest design only"))
+                (tmp / name).write_text(device_toml(best.device, header=header))
+                files.append(name)
+            if dev_result is not None:
+                sequence_figure(dev_result, spec).savefig(tmp / "sequence.png", dpi=120)
+                files.append("sequence.png")
+            if rob is not None:
+                robustness_figure(rob, spec).savefig(tmp / "robustness.png", dpi=110)
+                files.append("robustness.png")
+            convergence_figure(result).savefig(tmp / "convergence.png", dpi=110)
+            report["files"] = files
+            write_json(tmp / "report.json", report)
+            (tmp / "report.md").write_text(report_markdown(result, rob, sequence,
+                                                           verification))
+        if as_json:
+            emit_json({**report, "out": str(folder)})
+        else:
+            _print_summary(result, rob, folder, files)
+        if not result.feasible:
+            raise typer.Exit(EXIT_INFEASIBLE)
+
+
+def _print_summary(result: Any, rob: Any, folder: Path, files: list[str]) -> None:
+    import math
+
+    t = result.target
+    if result.feasible:
+        console.print(f"[bold green]feasible[/]: {t.name} — {result.evaluations} model "
+                      f"evaluations, {result.wall_time:.1f} s")
+    else:
+        console.print(f"[bold red]infeasible[/]: {t.name}")
+        for e in result.explanation:
+            console.print(f"  - {e}", highlight=False)
+    best = result.best
+    if best is not None:
+        for st, sr in zip(t.stages, best.stages, strict=True):
+            mag = (f"{sr.magnitude * 100:.3g} %" if st.kind == "stretch"
+                   else f"{math.degrees(sr.magnitude):.3g} deg")
+            pc = "—" if sr.start is None else f"{sr.start / 1e3:.4g}"
+            ph = "—" if sr.end is None else f"{sr.end / 1e3:.4g}"
+            console.print(f"  {st.name:<12} {st.kind:<8} Pc {pc} kPa, Ph {ph} kPa "
+                          f"(wanted {st.end_pressure / 1e3:.4g}), {mag}, {sr.n_cells} cells",
+                          highlight=False)
+    if rob is not None:
+        console.print(f"  robustness: P(order holds) = {rob.p_order:.1%}, P(all targets met) "
+                      f"= {rob.p_meets:.1%} over {rob.n_samples} samples", highlight=False)
+    console.print(f"files in {folder}: {', '.join(files)}")
+
+
+def register(app: typer.Typer) -> None:
+    app.command("design")(design_command)

@@ -1,0 +1,63 @@
+"""Design room: inverse design of sequentially morphing devices, and their robustness.
+
+From a target (an ordered list of wanted motions with the pressures at which they should
+complete, plus constraints) to ranked device designs whose predicted sequence meets it, an
+explanation when none can, and Monte Carlo robustness figures. See ``docs/design.md``.
+"""
+
+from multimorph.design._evaluate import Evaluation, StageResult, evaluate_one
+from multimorph.design._models import (
+    ROM_BATCH_NAMES,
+    BatchModel,
+    CountingModel,
+    batched,
+    rom_batch_model,
+)
+from multimorph.design._optimise import DesignResult, DesignSettings, design, evaluate_population
+from multimorph.design._robust import RobustnessReport, material_stderr, robustness
+from multimorph.design._space import (
+    N_VARS,
+    VAR_NAMES,
+    Candidate,
+    SearchSpace,
+    build_device,
+    device_length,
+)
+from multimorph.design._target import (
+    STAGE_KINDS,
+    Constraints,
+    Stage,
+    TargetSpec,
+    Tolerance,
+    target_from_spec,
+)
+
+__all__ = [
+    "N_VARS",
+    "ROM_BATCH_NAMES",
+    "STAGE_KINDS",
+    "VAR_NAMES",
+    "BatchModel",
+    "Candidate",
+    "Constraints",
+    "CountingModel",
+    "DesignResult",
+    "DesignSettings",
+    "Evaluation",
+    "RobustnessReport",
+    "SearchSpace",
+    "Stage",
+    "StageResult",
+    "TargetSpec",
+    "Tolerance",
+    "batched",
+    "build_device",
+    "design",
+    "device_length",
+    "evaluate_one",
+    "evaluate_population",
+    "material_stderr",
+    "robustness",
+    "rom_batch_model",
+    "target_from_spec",
+]

@@ -1,0 +1,207 @@
+"""Score designs against a target: stage pressures, magnitudes, constraints, distances.
+
+For each stage (module) of a candidate, from its cell :class:`~multimorph.response.Response`:
+
+- start Pc and completion Ph (Pa), the characteristic pressures of the cell;
+- the magnitude at completion: bend angle κ(Ph)·n·d, twist angle τ(Ph)·n·d, or λ(Ph) − 1,
+  with the number of cells n chosen to give the wanted angle (capped by ``max_length``);
+- the safety factor: break stretch / peak stretch at the maximum pressure.
+
+Distances are relative errors divided by the tolerance (|e| ≤ 1 meets the target).
+Constraint violations (stage order, separation, safety factor, device length) are relative
+amounts (> 0 violated). The objective is Σ e² + Σ (4 v / tol)² (+ 100 per stage whose Pc
+or Ph the model does not reach below the maximum pressure).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from multimorph.design._space import (
+    Candidate,
+    SearchSpace,
+    build_device,
+    cells_for,
+    device_length,
+)
+from multimorph.design._target import TargetSpec
+from multimorph.device import Device, Module, module_strains
+from multimorph.response import Response
+
+__all__ = ["MISSING_PENALTY", "Evaluation", "StageResult", "evaluate_candidates", "evaluate_one"]
+
+MISSING_PENALTY = 100.0
+
+
+@dataclass(frozen=True)
+class StageResult:
+    """What one stage's module does (SI; ``None`` where not reached)."""
+
+    name: str
+    kind: str
+    start: float | None
+    end: float | None
+    magnitude: float
+    n_cells: int
+    safety_factor: float | None
+    peak_stretch: float | None
+    failure: float | None
+    errors: dict[str, float] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"name": self.name, "kind": self.kind, "start_pressure": self.start,
+                "end_pressure": self.end, "magnitude": self.magnitude, "cells": self.n_cells,
+                "safety_factor": self.safety_factor, "peak_stretch": self.peak_stretch,
+                "failure_pressure": self.failure, "relative_errors": dict(self.errors)}
+
+
+@dataclass(frozen=True, eq=False)
+class Evaluation:
+    """A scored candidate.
+
+    Attributes
+    ----------
+    objective : float
+    meets : bool
+        Every stage within tolerance and every constraint satisfied.
+    stages : tuple of StageResult
+    violations : dict
+        Constraint name → relative violation (> 0 violated).
+    distances : dict
+        Target name (``"<stage>.end_pressure"`` …) → relative error / tolerance.
+    device : Device or None
+    responses : tuple of Response or None
+    """
+
+    candidate: Candidate
+    objective: float
+    meets: bool
+    stages: tuple[StageResult, ...]
+    violations: dict[str, float]
+    distances: dict[str, float]
+    device: Device | None
+    responses: tuple[Any, ...]
+    message: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"objective": self.objective, "meets_targets": self.meets,
+                "stages": [s.to_dict() for s in self.stages],
+                "distances": dict(self.distances), "violations": dict(self.violations),
+                "message": self.message}
+
+
+def _interp(p: np.ndarray, y: np.ndarray, at: float) -> float:
+    order = np.argsort(p, kind="stable")
+    return float(np.interp(at, p[order], y[order]))
+
+
+def _stage_curve(module: Module, resp: Response) -> tuple[np.ndarray, np.ndarray]:
+    ms = module_strains(module, resp)
+    return ms.pressure, np.abs(ms.measure)
+
+
+def evaluate_candidates(space: SearchSpace, cands: Sequence[Candidate],
+                        responses: Sequence[Sequence[Any]]) -> list[Evaluation]:
+    """Score candidates from their cell responses (``responses[k][i]``: stage i of design k)."""
+    return [evaluate_one(space.target, c, r) for c, r in zip(cands, responses, strict=True)]
+
+
+def evaluate_one(target: TargetSpec, cand: Candidate, resps: Sequence[Any],
+                 fixed_cells: Sequence[int] | None = None) -> Evaluation:
+    """Score one candidate; ``fixed_cells`` keeps given cell counts (else chosen per stage)."""
+    con, tol = target.constraints, target.tolerance
+    pmax = con.max_pressure
+    stages: list[StageResult] = []
+    dist: dict[str, float] = {}
+    viol: dict[str, float] = {}
+    missing = 0.0
+    n_cells: list[int] = []
+    problems: list[str] = []
+    for i, st in enumerate(target.stages):
+        r = resps[i]
+        cell = cand.cells[i]
+        if not isinstance(r, Response):
+            missing += 2.0
+            problems.append(f"{st.name}: model failed ({r})")
+            n_fail = int(fixed_cells[i]) if fixed_cells is not None else 1
+            stages.append(StageResult(st.name, st.kind, None, None, 0.0, n_fail, None, None,
+                                      None))
+            n_cells.append(n_fail)
+            continue
+        ch = r.characteristic
+        pc = ch.critical if ch.critical is not None and ch.critical <= pmax else None
+        ph = ch.hardening if ch.hardening is not None and ch.hardening <= pmax else None
+        probe = build_device_module(target, cand, i, 1)
+        p, m = _stage_curve(probe, r)
+        at = ph if ph is not None else pmax
+        per_cell = _interp(p, m, at)
+        max_cells = max(1, int(con.max_length // cell.length))
+        n = (int(fixed_cells[i]) if fixed_cells is not None
+             else cells_for(st, per_cell, max_cells=max_cells))
+        n_cells.append(n)
+        mag = per_cell * (n if st.kind != "stretch" else 1)
+        lp = np.asarray(r.loading.pressure, float)
+        peak = _interp(lp, np.asarray(r.loading.peak_stretch, float), pmax) if lp.size else None
+        brk = [mm.break_stretch for mm in (cell.material, cell.bottom_material)
+               if mm is not None and mm.break_stretch]
+        sf = (min(brk) / peak) if (brk and peak) else None
+        errs: dict[str, float] = {}
+        if ph is None:
+            missing += 1.0
+            problems.append(f"{st.name}: no hardening pressure below max_pressure")
+        else:
+            errs["end_pressure"] = (ph - st.end_pressure) / st.end_pressure
+        if st.start_pressure is not None:
+            if pc is None:
+                missing += 1.0
+                problems.append(f"{st.name}: no critical pressure below max_pressure")
+            else:
+                errs["start_pressure"] = (pc - st.start_pressure) / st.start_pressure
+        errs["magnitude"] = (mag - abs(st.magnitude)) / abs(st.magnitude)
+        for k, e in errs.items():
+            t = tol.magnitude if k == "magnitude" else tol.pressure
+            dist[f"{st.name}.{k}"] = e / t
+        if sf is not None:
+            viol[f"{st.name}.safety_factor"] = (con.min_safety_factor - sf) / con.min_safety_factor
+        stages.append(StageResult(st.name, st.kind, pc, ph, mag, n, sf, peak, ch.failure, errs))
+    # sequence constraints between consecutive stages
+    for a, b in itertools.pairwise(stages):
+        key = f"{a.name}->{b.name}"
+        if a.start is not None and b.start is not None:
+            viol[f"{key}.order"] = (a.start - b.start) / b.start + 0.01
+        if a.end is not None and b.start is not None:
+            floor = con.separation_floor(b.start)
+            viol[f"{key}.separation"] = (floor - (b.start - a.end)) / b.start
+    device = None
+    try:
+        device = build_device(target, cand, n_cells)
+        viol["device.length"] = (device_length(device) - con.max_length) / con.max_length
+    except Exception as exc:  # a layout the device room refuses
+        problems.append(f"device: {exc}")
+        missing += 1.0
+    f = float(sum(e * e for e in dist.values()))
+    f += float(sum((4.0 * max(v, 0.0) / tol.pressure) ** 2 for v in viol.values()))
+    f += MISSING_PENALTY * missing
+    if not math.isfinite(f):
+        f = 1e12
+    meets = (missing == 0 and all(abs(e) <= 1.0 for e in dist.values())
+             and all(v <= 0 for v in viol.values()))
+    return Evaluation(candidate=cand, objective=f, meets=meets, stages=tuple(stages),
+                      violations=viol, distances=dist, device=device, responses=tuple(resps),
+                      message="; ".join(problems))
+
+
+def build_device_module(target: TargetSpec, cand: Candidate, i: int, n: int) -> Module:
+    """The module of stage ``i`` with ``n`` cells (for its motion per cell)."""
+    st = target.stages[i]
+    kw: dict[str, Any] = dict(name=st.name, kind=st.module_kind, cell=cand.cells[i], n_cells=n)
+    if st.kind == "twist":
+        kw["tilt"] = cand.tilts[i]
+        kw["shaft_radius"] = st.shaft_radius
+    return Module(**kw)

@@ -1,0 +1,402 @@
+"""The optimiser: reachability check, differential evolution over the batched cell model,
+then a local pattern-search refinement; ranked designs and, when the target cannot be met,
+an explanation of the binding constraints.
+
+Global stage: differential evolution (DE/rand/1/bin with dithered F), the whole population
+evaluated as one batch of cells (one model call per generation). Local stage: a
+derivative-free compass (pattern) search around the best design on its continuous variables
+(material choices held), all 2·n probes of a step evaluated as one batch. The reduced
+model's characteristic pressures Pc and Ph come from a traced path (a maximum of dκ/dP and a
+knee), which are not smooth functions of an equilibrium alone, so the refinement does not
+use implicit-function gradients (see ``docs/design.md``).
+
+Everything is seeded (``numpy.random.default_rng(seed)``): the same target, settings and
+model give the same designs.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from multimorph.design._evaluate import Evaluation, evaluate_candidates
+from multimorph.design._models import BatchModel, CountingModel, rom_batch_model
+from multimorph.design._space import N_VARS, VAR_NAMES, SearchSpace
+from multimorph.design._target import TargetSpec
+from multimorph.errors import SpecError
+
+__all__ = ["DesignResult", "DesignSettings", "design", "evaluate_population"]
+
+Progress = Callable[[int, int, str], None]
+
+
+@dataclass(frozen=True)
+class DesignSettings:
+    """Optimiser settings.
+
+    Parameters
+    ----------
+    budget : int
+        Cell-model evaluations for the whole search (designs × stages), reachability check
+        and refinement included.
+    population : int
+        Differential-evolution population size.
+    seed : int
+    refine_fraction : float
+        Share of the budget kept for the local refinement.
+    top : int
+        Number of ranked designs returned.
+    robust_samples : int
+        Robust objective: Monte Carlo samples per shortlisted design (0: nominal ranking).
+    robust_shortlist : int
+        Designs re-ranked by the robust objective.
+    tolerances : dict, optional
+        Uncertainty model of the robust objective (see :func:`multimorph.design.robustness`).
+    """
+
+    budget: int = 1200
+    population: int = 24
+    seed: int = 0
+    refine_fraction: float = 0.3
+    top: int = 5
+    robust_samples: int = 0
+    robust_shortlist: int = 4
+    wall_tolerance: float = 0.1e-3
+    default_cv: float = 0.05
+
+    def __post_init__(self) -> None:
+        if self.population < 4:
+            raise SpecError(f"population must be at least 4, got {self.population}")
+        if self.budget < 1:
+            raise SpecError(f"budget must be positive, got {self.budget}")
+        if not 0 <= self.refine_fraction < 1:
+            raise SpecError(f"refine_fraction must lie in [0, 1), got {self.refine_fraction}")
+
+
+@dataclass(frozen=True, eq=False)
+class DesignResult:
+    """What :func:`design` found.
+
+    Attributes
+    ----------
+    feasible : bool
+        The best design meets every target within tolerance and every constraint.
+    designs : list of Evaluation
+        Ranked, best first (may be empty when the target is infeasible up front).
+    explanation : list of str
+        Why the target cannot be met (binding constraints), empty when feasible.
+    reachable : dict
+        Per stage, the completion pressures of the softest and stiffest corner designs.
+    evaluations : int
+        Cell-model evaluations used.
+    history : list of float
+        Best objective after each model call.
+    """
+
+    target: TargetSpec
+    settings: DesignSettings
+    feasible: bool
+    designs: list[Evaluation]
+    explanation: list[str]
+    reachable: dict[str, Any]
+    evaluations: int
+    model_calls: int
+    history: list[float]
+    wall_time: float
+    robust_scores: dict[int, float] = field(default_factory=dict)
+
+    @property
+    def best(self) -> Evaluation | None:
+        return self.designs[0] if self.designs else None
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "target": self.target.name,
+            "feasible": self.feasible,
+            "explanation": list(self.explanation),
+            "reachable": self.reachable,
+            "evaluations": self.evaluations,
+            "model_calls": self.model_calls,
+            "wall_time": self.wall_time,
+            "seed": self.settings.seed,
+            "budget": self.settings.budget,
+            "designs": [d.to_dict() for d in self.designs],
+        }
+
+
+def evaluate_population(space: SearchSpace, X: np.ndarray, model: Any) -> list[Evaluation]:
+    """Decode and score designs ``X`` (shape (n, dim)) with one batched model call."""
+    cands = [space.decode(x) for x in np.atleast_2d(X)]
+    cells = [c for cand in cands for c in cand.cells]
+    out = model(cells, space.target.constraints.max_pressure)
+    s = space.n_stages
+    resps = [out[k * s:(k + 1) * s] for k in range(len(cands))]
+    return evaluate_candidates(space, cands, resps)
+
+
+def _static_checks(space: SearchSpace) -> list[str]:
+    t = space.target
+    pmax = t.constraints.max_pressure
+    out = list(space.check())
+    for st in t.stages:
+        if st.end_pressure > pmax:
+            out.append(f"max_pressure binds: stage {st.name!r} must complete at "
+                       f"{st.end_pressure / 1e3:.4g} kPa, above the supply pressure "
+                       f"max_pressure = {pmax / 1e3:.4g} kPa")
+    return out
+
+
+def _reachability(space: SearchSpace, model: Any) -> tuple[dict[str, Any], list[str]]:
+    """Evaluate the softest and stiffest corner design of every allowed material."""
+    t = space.target
+    mats = t.constraints.materials
+    tol = t.tolerance.pressure
+    stiff_order = sorted(range(len(mats)), key=lambda j: mats[j].shear_modulus)
+    stiffest = stiff_order[-1]
+    X = [space.corner(stiff=True, material=j, bottom=stiffest) for j in range(len(mats))]
+    X += [space.corner(stiff=False, material=j, bottom=stiffest) for j in range(len(mats))]
+    evs = evaluate_population(space, np.array(X), model)
+    nm = len(mats)
+    reach: dict[str, Any] = {}
+    reasons: list[str] = []
+    for i, st in enumerate(t.stages):
+        stiff = [(evs[j].stages[i].end, mats[j].name) for j in range(nm)]
+        soft = [(evs[nm + j].stages[i].end, evs[nm + j].stages[i].start, mats[j].name)
+                for j in range(nm)]
+        reach[st.name] = {
+            "stiffest_end_pressure": {n: p for p, n in stiff},
+            "softest_end_pressure": {n: p for p, _, n in soft},
+        }
+        # too stiff a target: even the stiffest corner of every material completes too early
+        if all(p is not None for p, _ in stiff):
+            top, name = max(stiff, key=lambda pn: pn[0])
+            if top < st.end_pressure * (1.0 - tol):
+                reasons.append(
+                    f"stage {st.name!r} must complete at {st.end_pressure / 1e3:.4g} kPa, but "
+                    f"the stiffest allowed design (material {name!r}, the thickest walls "
+                    f"max_width = {t.constraints.max_width * 1e3:.4g} mm and max_height = "
+                    f"{t.constraints.max_height * 1e3:.4g} mm allow) completes by "
+                    f"{top / 1e3:.4g} kPa: the allowed materials and cell size bind "
+                    f"(a stiffer material or a larger cell is needed)")
+        # too soft a target: even the softest corner starts/completes too late
+        firsts = [(s_ if s_ is not None else e_) for e_, s_, _ in soft]
+        if all(p is not None for p in firsts):
+            low = min(firsts)
+            name = soft[firsts.index(low)][2]
+            if low > st.end_pressure * (1.0 + tol):
+                reasons.append(
+                    f"stage {st.name!r} must complete at {st.end_pressure / 1e3:.4g} kPa, but "
+                    f"the softest allowed design (material {name!r}, every wall at min_wall = "
+                    f"{t.constraints.min_wall * 1e3:.4g} mm, largest chambers) only starts "
+                    f"moving at {low / 1e3:.4g} kPa: min_wall and the allowed materials bind "
+                    f"(thinner walls or a softer material are needed)")
+    return reach, reasons
+
+
+def _binding(space: SearchSpace, ev: Evaluation) -> list[str]:
+    """Active bounds of a design, named by the constraint that sets them."""
+    t = space.target
+    c = t.constraints
+    out: list[str] = []
+    mats = c.materials
+    mu = [m.shear_modulus for m in mats]
+    for i, st in enumerate(t.stages):
+        u = ev.candidate.x[i * N_VARS:(i + 1) * N_VARS]
+        im, ib = ev.candidate.material_index[i]
+        act = []
+        for j, name in enumerate(VAR_NAMES[:7]):
+            if st.kind == "stretch" and name == "bottom_wall":
+                continue
+            if name in ("top_wall", "bottom_wall", "side_wall", "end_wall") and u[j] <= 0.02:
+                act.append(f"{name} at min_wall {c.min_wall * 1e3:.3g} mm")
+            elif name in ("top_wall", "bottom_wall", "side_wall", "end_wall") and u[j] >= 0.98:
+                act.append(f"{name} at its largest (chamber at its minimum)")
+            elif name == "width" and u[j] >= 0.98:
+                act.append(f"width at max_width {c.max_width * 1e3:.3g} mm")
+            elif name == "height" and u[j] >= 0.98:
+                act.append(f"height at max_height {c.max_height * 1e3:.3g} mm")
+        if len(mats) > 1 and mu[im] == max(mu):
+            act.append(f"wall material the stiffest allowed ({mats[im].name})")
+        if len(mats) > 1 and mu[im] == min(mu):
+            act.append(f"wall material the softest allowed ({mats[im].name})")
+        sr = ev.stages[i]
+        cell = ev.candidate.cells[i]
+        if st.kind != "stretch" and sr.n_cells >= max(1, int(c.max_length // cell.length)):
+            act.append(f"cells capped by max_length {c.max_length * 1e3:.4g} mm")
+        if act:
+            out.append(f"stage {st.name!r}: " + "; ".join(act))
+        del ib
+    return out
+
+
+def _explain(space: SearchSpace, ev: Evaluation) -> list[str]:
+    t = space.target
+    out: list[str] = []
+    if ev.message:
+        out.append(ev.message)
+    for key, d in ev.distances.items():
+        if abs(d) > 1.0:
+            stage, what = key.split(".", 1)
+            st = next(s for s in t.stages if s.name == stage)
+            sr = next(s for s in ev.stages if s.name == stage)
+            tolv = t.tolerance.magnitude if what == "magnitude" else t.tolerance.pressure
+            rel = d * tolv
+            if what == "magnitude":
+                unit = "%" if st.kind == "stretch" else "deg"
+                got = sr.magnitude * 100 if st.kind == "stretch" else math.degrees(sr.magnitude)
+                want = (abs(st.magnitude) * 100 if st.kind == "stretch"
+                        else math.degrees(abs(st.magnitude)))
+                out.append(f"stage {stage!r} magnitude {got:.3g} {unit} vs wanted {want:.3g} "
+                           f"{unit} ({rel:+.0%}, tolerance ±{tolv:.0%})")
+            else:
+                want = st.end_pressure if what == "end_pressure" else st.start_pressure
+                got = sr.end if what == "end_pressure" else sr.start
+                out.append(f"stage {stage!r} {what.replace('_', ' ')} {got / 1e3:.4g} kPa vs "
+                           f"wanted {want / 1e3:.4g} kPa ({rel:+.0%}, tolerance ±{tolv:.0%})")
+    for key, v in ev.violations.items():
+        if v > 0:
+            what = key.rsplit(".", 1)[1]
+            text = {"order": "stage order violated (the later stage starts first)",
+                    "separation": "min_separation violated (the stages overlap)",
+                    "safety_factor": "min_safety_factor violated (walls too close to break "
+                                     "at max_pressure)",
+                    "length": "max_length violated (device too long)"}.get(what, what)
+            out.append(f"{key.rsplit('.', 1)[0]}: {text} by {v:.0%}")
+    bind = _binding(space, ev)
+    if bind:
+        out.append("active bounds of the closest design: " + " | ".join(bind))
+    return out
+
+
+def design(target: TargetSpec, *, model: BatchModel | None = None,
+           settings: DesignSettings | None = None, progress: Progress | None = None,
+           ) -> DesignResult:
+    """Search for devices whose predicted sequence meets ``target``.
+
+    Parameters
+    ----------
+    target : TargetSpec
+    model : BatchModel, optional
+        ``model(cells, p_max) -> list[Response | Exception]``; default the reduced model
+        (:func:`multimorph.design.rom_batch_model`).
+    settings : DesignSettings, optional
+    progress : callable, optional
+        ``progress(evaluations, budget, phase)`` after every model call.
+
+    Returns
+    -------
+    DesignResult
+        Ranked designs; ``feasible`` False with an ``explanation`` when no design meets the
+        target (never a silent poor design).
+    """
+    s = settings or DesignSettings()
+    t0 = time.perf_counter()
+    space = SearchSpace(target)
+    static = _static_checks(space)
+    if static:
+        return DesignResult(target, s, False, [], static, {}, 0, 0, [],
+                            time.perf_counter() - t0)
+    raw = model if model is not None else rom_batch_model()
+    counted = CountingModel(raw, pad_to=s.population * space.n_stages)
+    rng = np.random.default_rng(s.seed)
+    history: list[float] = []
+    archive: dict[bytes, Evaluation] = {}
+
+    def run(X: np.ndarray, phase: str) -> list[Evaluation]:
+        evs = evaluate_population(space, X, counted)
+        for e in evs:
+            archive.setdefault(np.round(e.candidate.x, 6).tobytes(), e)
+        best = min(e.objective for e in archive.values()) if archive else math.inf
+        history.append(best)
+        if progress is not None:
+            progress(counted.evaluations, s.budget, phase)
+        return evs
+
+    # reachability of the targets by the corner designs (explains infeasible targets)
+    reach, reasons = _reachability(space, lambda c, p: counted(c, p))
+    if progress is not None:
+        progress(counted.evaluations, s.budget, "reachability")
+    if reasons:
+        return DesignResult(target, s, False, [], reasons, reach, counted.evaluations,
+                            counted.calls, history, time.perf_counter() - t0)
+
+    # global stage: differential evolution
+    n, dim = s.population, space.dim
+    S = space.n_stages
+    global_budget = s.budget * (1.0 - s.refine_fraction)
+    X = (rng.permuted(np.tile(np.arange(n), (dim, 1)), axis=1).T
+         + rng.random((n, dim))) / n                     # Latin hypercube
+    evs = run(X, "global")
+    f = np.array([e.objective for e in evs])
+    while counted.evaluations + n * S <= global_budget:
+        idx = np.array([rng.choice(np.delete(np.arange(n), k), 3, replace=False)
+                        for k in range(n)])
+        F = rng.uniform(0.5, 0.9, size=(n, 1))
+        V = X[idx[:, 0]] + F * (X[idx[:, 1]] - X[idx[:, 2]])
+        V = np.where(V < 0, -V, V)
+        V = np.where(V > 1, 2 - V, V)
+        V = np.clip(V, 0.0, 1.0)
+        cross = rng.random((n, dim)) < 0.8
+        cross[np.arange(n), rng.integers(0, dim, n)] = True
+        U = np.where(cross, V, X)
+        tevs = run(U, "global")
+        ft = np.array([e.objective for e in tevs])
+        better = ft <= f
+        X[better], f[better] = U[better], ft[better]
+        evs = [tevs[k] if better[k] else evs[k] for k in range(n)]
+
+    # local stage: compass search on the continuous variables of the best design
+    cont = [i * N_VARS + j for i in range(S) for j in (0, 1, 2, 3, 4, 5, 6, 9)]
+    kb = int(np.argmin(f))
+    xb, fb = X[kb].copy(), float(f[kb])
+    step = 0.08
+    while step > 2e-3 and counted.evaluations + 2 * len(cont) <= s.budget:
+        P = np.repeat(xb[None, :], 2 * len(cont), axis=0)
+        for k, j in enumerate(cont):
+            P[2 * k, j] = min(1.0, xb[j] + step)
+            P[2 * k + 1, j] = max(0.0, xb[j] - step)
+        pevs = run(P, "refine")
+        fp = np.array([e.objective for e in pevs])
+        k = int(np.argmin(fp))
+        if fp[k] < fb - 1e-12:
+            xb, fb = P[k].copy(), float(fp[k])
+        else:
+            step *= 0.5
+
+    ranked = sorted(archive.values(), key=lambda e: e.objective)
+    top: list[Evaluation] = []
+    seen: set[tuple[Any, ...]] = set()
+    for e in ranked:
+        key = (round(e.objective, 9), e.candidate.material_index)
+        if key in seen:
+            continue
+        seen.add(key)
+        top.append(e)
+        if len(top) >= max(s.top, s.robust_shortlist):
+            break
+    robust_scores: dict[int, float] = {}
+    if s.robust_samples > 0:
+        from multimorph.design._robust import robustness
+
+        shortlist = top[:s.robust_shortlist]
+        scored = []
+        for e in shortlist:
+            rep = robustness(target, e, n_samples=s.robust_samples, seed=s.seed,
+                             model=lambda c, p: counted(c, p),
+                             wall_tolerance=s.wall_tolerance, default_cv=s.default_cv)
+            score = rep.mean_objective + 10.0 * (1.0 - rep.p_order)
+            scored.append((score, e))
+        scored.sort(key=lambda se: se[0])
+        top = [e for _, e in scored] + top[len(shortlist):]
+        robust_scores = {k: sc for k, (sc, _) in enumerate(scored)}
+    top = top[:s.top]
+    best = top[0]
+    feasible = bool(best.meets)
+    explanation = [] if feasible else _explain(space, best)
+    return DesignResult(target, s, feasible, top, explanation, reach, counted.evaluations,
+                        counted.calls, history, time.perf_counter() - t0, robust_scores)

@@ -1,0 +1,250 @@
+"""Outputs of a design run: the device TOML, a report (markdown and JSON) and figures."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from multimorph.design._evaluate import Evaluation
+from multimorph.design._optimise import DesignResult
+from multimorph.design._robust import RobustnessReport
+from multimorph.device import Device
+from multimorph.materials import Material
+
+__all__ = ["convergence_figure", "device_toml", "report_dict", "report_markdown",
+           "robustness_figure", "sequence_figure"]
+
+
+def _q(s: str) -> str:
+    return '"' + s.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+def _mm(x: float) -> str:
+    return _q(f"{x * 1e3:.6g} mm")
+
+
+def _is_library(m: Material) -> bool:
+    from multimorph.materials import get_material
+
+    try:
+        lib = get_material(m.name, m.model)
+    except Exception:
+        return False
+    return dict(lib.params) == dict(m.params)
+
+
+def device_toml(device: Device, *, header: str = "") -> str:
+    """The device as a TOML spec readable by :func:`multimorph.device.device_from_spec`."""
+    lines: list[str] = []
+    if header:
+        lines += [f"# {h}" for h in header.splitlines()] + [""]
+    pmax = f"{device.pmax / 1e3:.6g} kPa"
+    lines += ["[device]", f"name = {_q(device.name)}", f"pmax = {_q(pmax)}", ""]
+    mats: dict[str, Material] = {}
+    for m in device.modules:
+        for mm in (m.cell.material, m.cell.bottom_material):
+            assert mm is not None
+            mats.setdefault(mm.name, mm)
+    inline = {n: mm for n, mm in mats.items() if not _is_library(mm)}
+    for n, mm in inline.items():
+        lines.append(f"[materials.{_q(n)}]")
+        lines.append(f"model = {_q(mm.model)}")
+        for k, v in mm.params.items():
+            lines.append(f"{k} = {float(v)!r}")
+        if mm.break_stretch:
+            lines.append(f"break_stretch = {float(mm.break_stretch)!r}")
+        lines.append("")
+    for m in device.modules:
+        c = m.cell
+        lines.append(f"[cells.{_q(m.name)}]")
+        for key in ("length", "width", "height", "top_wall", "bottom_wall", "side_wall",
+                    "end_wall"):
+            lines.append(f"{key} = {_mm(getattr(c, key))}")
+        lines.append(f"material = {_q(c.material.name)}")
+        assert c.bottom_material is not None
+        lines.append(f"bottom_material = {_q(c.bottom_material.name)}")
+        lines.append("")
+    for m in device.modules:
+        lines += ["[[module]]", f"name = {_q(m.name)}", f"kind = {_q(m.kind)}",
+                  f"cell = {_q(m.name)}", f"cells = {m.n_cells}"]
+        if m.kind == "twisting":
+            lines += [f"tilt = {_q(f'{math.degrees(m.tilt):.6g} deg')}",
+                      f"shaft_radius = {_mm(m.shaft_radius)}", f"strips = {m.strips}"]
+        if m.orientation:
+            lines.append(f"orientation = {_q(f'{math.degrees(m.orientation):.6g} deg')}")
+        if m.attach_to is not None:
+            lines += [f"attach_to = {_q(m.attach_to)}", f"count = {m.count}",
+                      f"radius = {_mm(m.radius)}"]
+        lines.append("")
+    return "\n".join(lines)
+
+
+def _fmt_p(p: float | None) -> str:
+    return "—" if p is None else f"{p / 1e3:.4g} kPa"
+
+
+def _fmt_mag(kind: str, v: float | None) -> str:
+    if v is None:
+        return "—"
+    return f"{v * 100:.3g} %" if kind == "stretch" else f"{math.degrees(v):.3g}°"
+
+
+def report_dict(result: DesignResult, robust: RobustnessReport | None = None,
+                sequence: dict[str, Any] | None = None, verification: Any = None,
+                ) -> dict[str, Any]:
+    """Everything of a run as a JSON-able dict (SI units)."""
+    t = result.target
+    out = result.to_dict()
+    out["stages"] = [{"name": s.name, "kind": s.kind, "magnitude": s.magnitude,
+                      "start_pressure": s.start_pressure, "end_pressure": s.end_pressure,
+                      "count": s.count} for s in t.stages]
+    out["tolerance"] = {"pressure": t.tolerance.pressure, "magnitude": t.tolerance.magnitude}
+    out["robustness"] = None if robust is None else robust.to_dict()
+    out["sequence"] = sequence
+    out["verification"] = verification
+    return out
+
+
+def report_markdown(result: DesignResult, robust: RobustnessReport | None = None,
+                    sequence: dict[str, Any] | None = None, verification: Any = None) -> str:
+    """A human-readable report of a run."""
+    t = result.target
+    L = [f"# Design report: {t.name}", ""]
+    L.append(f"Verdict: **{'feasible — every target met' if result.feasible else 'INFEASIBLE'}**"
+             f" (seed {result.settings.seed}, {result.evaluations} cell-model evaluations in "
+             f"{result.model_calls} batched calls, {result.wall_time:.1f} s).")
+    L.append("")
+    if result.explanation:
+        L += ["## Why the target is not met", ""]
+        L += [f"- {e}" for e in result.explanation] + [""]
+    best = result.best
+    if best is not None:
+        L += ["## Best design vs target", "",
+              f"Tolerances: pressure ±{t.tolerance.pressure:.0%}, magnitude "
+              f"±{t.tolerance.magnitude:.0%}.", "",
+              "| stage | kind | cells | wanted start | predicted Pc | wanted end | predicted Ph "
+              "| wanted | predicted | safety factor |",
+              "|---|---|---|---|---|---|---|---|---|---|"]
+        for st, sr in zip(t.stages, best.stages, strict=True):
+            sf = "—" if sr.safety_factor is None else f"{sr.safety_factor:.2f}"
+            L.append(f"| {st.name} | {st.kind} | {sr.n_cells} | {_fmt_p(st.start_pressure)} | "
+                     f"{_fmt_p(sr.start)} | {_fmt_p(st.end_pressure)} | {_fmt_p(sr.end)} | "
+                     f"{_fmt_mag(st.kind, abs(st.magnitude))} | "
+                     f"{_fmt_mag(st.kind, sr.magnitude)} | {sf} |")
+        L += ["", "Cells of the best design:", ""]
+        for st, c, tilt in zip(t.stages, best.candidate.cells, best.candidate.tilts,
+                               strict=True):
+            extra = f", tilt {math.degrees(tilt):.3g}°" if st.kind == "twist" else ""
+            assert c.bottom_material is not None
+            L.append(f"- {st.name}: d {c.length * 1e3:.3g} × w {c.width * 1e3:.3g} × h "
+                     f"{c.height * 1e3:.3g} mm; walls top {c.top_wall * 1e3:.3g}, bottom "
+                     f"{c.bottom_wall * 1e3:.3g}, side {c.side_wall * 1e3:.3g}, end "
+                     f"{c.end_wall * 1e3:.3g} mm; {c.material.name} / "
+                     f"{c.bottom_material.name}{extra}")
+        L.append("")
+        if len(result.designs) > 1:
+            L += ["## Ranked designs", "", "| rank | objective | meets | worst distance |",
+                  "|---|---|---|---|"]
+            for k, e in enumerate(result.designs):
+                worst = max((abs(v) for v in e.distances.values()), default=float("nan"))
+                L.append(f"| {k + 1} | {e.objective:.3g} | {'yes' if e.meets else 'no'} | "
+                         f"{worst:.2f} |")
+            L.append("")
+    if sequence:
+        L += ["## Predicted sequence (device simulation)", "",
+              f"Order by Pc: {' → '.join(sequence['order'])}.", ""]
+        for m in sequence["margins"]:
+            if m["margin"] is None:
+                L.append(f"- {m['earlier']} → {m['later']}: undetermined")
+            else:
+                L.append(f"- {m['earlier']} → {m['later']}: {m['verdict']} (Pc_later − "
+                         f"Ph_earlier = {m['margin'] / 1e3:+.3g} kPa)")
+        L.append(f"- first to fail beyond the path: {sequence.get('first_to_fail') or 'none'}")
+        L.append("")
+    if robust is not None:
+        L += ["## Robustness (Monte Carlo)", "",
+              f"{robust.n_samples} samples, seed {robust.seed}; walls ±"
+              f"{robust.wall_tolerance * 1e3:.3g} mm (uniform); material parameters normal "
+              "with:", ""]
+        for name, u in robust.uncertainty.items():
+            sd = ", ".join(f"{k} ± {v:.3g}" for k, v in u["std"].items())
+            L.append(f"- {name}: {u['source']} ({sd}; SI)")
+        L += ["", f"Probability that the stage order holds: **{robust.p_order:.1%}**; that "
+              f"every target and constraint is met: **{robust.p_meets:.1%}**.", "",
+              "| stage | quantity | mean | std | 5 % | 95 % | not reached |",
+              "|---|---|---|---|---|---|---|"]
+        for st in t.stages:
+            for q, s in robust.stages[st.name].items():
+                if s["mean"] is None:
+                    L.append(f"| {st.name} | {q} | — | — | — | — | {s['missing']} |")
+                    continue
+                if q == "magnitude":
+                    def f(v, k=st.kind):
+                        return (_fmt_mag(k, v))
+                else:
+                    f = _fmt_p
+                L.append(f"| {st.name} | {q} | {f(s['mean'])} | {f(s['std'])} | "
+                         f"{f(s['p05'])} | {f(s['p95'])} | {s['missing']} |")
+        L.append("")
+    if verification is not None:
+        L += ["## FE verification", "", "```", str(verification), "```", ""]
+    return "\n".join(L)
+
+
+def sequence_figure(device_result: Any, target: Any) -> Any:
+    """The device's sequence chart with the target pressures marked."""
+    from multimorph.viz._device_plots import module_curves_figure
+
+    fig = module_curves_figure(device_result)
+    ax = fig.axes[0]
+    for st in target.stages:
+        ax.axvline(st.end_pressure / 1e3, color="k", lw=0.8, ls="--")
+        if st.start_pressure is not None:
+            ax.axvline(st.start_pressure / 1e3, color="k", lw=0.8, ls=":")
+    return fig
+
+
+def convergence_figure(result: DesignResult) -> Any:
+    """Best objective vs model call."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(6.0, 3.6), layout="constrained")
+    ax = fig.add_subplot(1, 1, 1)
+    h = np.asarray(result.history, float)
+    if h.size:
+        ax.semilogy(np.arange(1, h.size + 1), np.maximum(h, 1e-6), "-o", ms=3)
+    ax.set_xlabel("batched model call")
+    ax.set_ylabel("best objective")
+    ax.set_title(f"{result.target.name}: search convergence", fontsize=10)
+    ax.grid(alpha=0.3)
+    return fig
+
+
+def robustness_figure(robust: RobustnessReport, target: Any) -> Any:
+    """Histograms of every stage's start and completion pressure over the samples."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(7.0, 3.8), layout="constrained")
+    ax = fig.add_subplot(1, 1, 1)
+    for i, st in enumerate(target.stages):
+        s = robust.samples.get(st.name, {})
+        for key, alpha in (("start_pressure", 0.35), ("end_pressure", 0.7)):
+            v = np.asarray(s.get(key, []), float)
+            v = v[np.isfinite(v)]
+            if v.size:
+                ax.hist(v / 1e3, bins=20, alpha=alpha, color=f"C{i}",
+                        label=f"{st.name} {key.split('_')[0]}")
+        ax.axvline(st.end_pressure / 1e3, color=f"C{i}", ls="--", lw=1)
+    ax.set_xlabel("pressure (kPa)")
+    ax.set_ylabel("samples")
+    ax.set_title(f"robustness: P(order holds) = {robust.p_order:.0%}", fontsize=10)
+    ax.legend(fontsize=8)
+    return fig
+
+
+def best_device(result: DesignResult) -> Device | None:
+    """The best design's device (None when there is no design)."""
+    best: Evaluation | None = result.best
+    return None if best is None else best.device

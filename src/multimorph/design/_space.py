@@ -1,0 +1,184 @@
+"""Search space: one module per stage, its cell, material and layout from a unit vector.
+
+Each stage owns :data:`N_VARS` coordinates in [0, 1] (unused ones are ignored)::
+
+    0 d    cell length           d_min … d_max
+    1 w    cell width            w_min … max_width
+    2 h    cell height           h_min … max_height
+    3 ht   top wall              min_wall … half the height left over by a 1 mm chamber
+    4 hb   bottom wall (bending; stretching: = ht)
+    5 ws   side walls            min_wall … half the width left over
+    6 df   end walls             min_wall … half the length left over
+    7 wall material              discrete: index into the allowed materials
+    8 bottom material (bending)  discrete
+    9 tilt (twisting)            10° … 80°
+
+Every decoded cell is valid by construction (walls ≥ min_wall, chambers ≥ ``min_chamber``).
+The number of cells of bend and twist modules is not searched: it follows from the wanted
+angle and the cell's predicted motion (:func:`cells_for`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from multimorph.design._target import Stage, TargetSpec
+from multimorph.device import Device, Module
+from multimorph.errors import SpecError
+from multimorph.geometry import CellGeometry
+
+__all__ = ["N_VARS", "VAR_NAMES", "Candidate", "SearchSpace"]
+
+N_VARS = 10
+VAR_NAMES = ("length", "width", "height", "top_wall", "bottom_wall", "side_wall", "end_wall",
+             "material", "bottom_material", "tilt")
+TILT_RANGE = (math.radians(10.0), math.radians(80.0))
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """A decoded design: one cell (and tilt) per stage; module sizes follow later."""
+
+    x: np.ndarray
+    cells: tuple[CellGeometry, ...]
+    tilts: tuple[float, ...]
+    material_index: tuple[tuple[int, int], ...]
+
+
+@dataclass(frozen=True)
+class SearchSpace:
+    """Bounds of the search (SI) derived from a target's constraints.
+
+    Parameters
+    ----------
+    target : TargetSpec
+    d_range : (float, float)
+        Cell length bounds (m).
+    min_chamber : float
+        Least chamber size in every direction (m).
+    """
+
+    target: TargetSpec
+    d_range: tuple[float, float] = (4e-3, 20e-3)
+    min_chamber: float = 1e-3
+
+    @property
+    def n_stages(self) -> int:
+        return len(self.target.stages)
+
+    @property
+    def dim(self) -> int:
+        return N_VARS * self.n_stages
+
+    def _lo(self) -> float:
+        return 2.0 * self.target.constraints.min_wall + self.min_chamber
+
+    def check(self) -> list[str]:
+        """Geometric infeasibilities of the bounds themselves (empty when none)."""
+        c = self.target.constraints
+        out = []
+        lo = self._lo()
+        for what, hi in (("max_width", c.max_width), ("max_height", c.max_height)):
+            if hi < lo:
+                out.append(f"{what} {hi * 1e3:.4g} mm cannot hold two walls of min_wall "
+                           f"{c.min_wall * 1e3:.4g} mm and a {self.min_chamber * 1e3:.3g} mm "
+                           f"chamber (needs ≥ {lo * 1e3:.4g} mm)")
+        if self.d_range[1] < lo:
+            out.append(f"cell length up to {self.d_range[1] * 1e3:.4g} mm cannot hold two end "
+                       f"walls of min_wall {c.min_wall * 1e3:.4g} mm")
+        return out
+
+    def decode(self, x: np.ndarray) -> Candidate:
+        """Cells of one design from its unit vector ``x`` (shape ``(dim,)``)."""
+        x = np.clip(np.asarray(x, float), 0.0, 1.0)
+        c = self.target.constraints
+        mats = c.materials
+        nm = len(mats)
+        lo = self._lo()
+        tmin, mc = c.min_wall, self.min_chamber
+        cells, tilts, midx = [], [], []
+        for i, st in enumerate(self.target.stages):
+            u = x[i * N_VARS:(i + 1) * N_VARS]
+            d_lo, d_hi = max(self.d_range[0], lo), max(self.d_range[1], lo)
+            d = d_lo + u[0] * (d_hi - d_lo)
+            w = lo + u[1] * (max(c.max_width, lo) - lo)
+            h = lo + u[2] * (max(c.max_height, lo) - lo)
+            room_h = max(h - mc - 2.0 * tmin, 0.0)
+            ht = tmin + u[3] * 0.5 * room_h
+            hb = tmin + u[4] * 0.5 * room_h
+            ws = tmin + u[5] * 0.5 * max(w - mc - 2.0 * tmin, 0.0)
+            df = tmin + u[6] * 0.5 * max(d - mc - 2.0 * tmin, 0.0)
+            im = min(int(u[7] * nm), nm - 1)
+            ib = min(int(u[8] * nm), nm - 1)
+            wall = mats[im]
+            if st.kind == "stretch":
+                hb, ib = ht, im
+            bottom = mats[ib]
+            cells.append(CellGeometry(d, w, h, ht, hb, ws, df, material=wall,
+                                      bottom_material=bottom))
+            tilts.append(TILT_RANGE[0] + u[9] * (TILT_RANGE[1] - TILT_RANGE[0]))
+            midx.append((im, ib))
+        return Candidate(x=x, cells=tuple(cells), tilts=tuple(tilts),
+                         material_index=tuple(midx))
+
+    def corner(self, *, stiff: bool, material: int, bottom: int | None = None) -> np.ndarray:
+        """The stiffest (thickest walls, smallest chambers) or softest design of a material."""
+        nm = len(self.target.constraints.materials)
+        u = np.empty(N_VARS)
+        val = 1.0 if stiff else 0.0
+        u[:] = [0.5, 1 - val, 0.5, val, val, val, val, (material + 0.5) / nm,
+                ((material if bottom is None else bottom) + 0.5) / nm, 0.5]
+        u[0] = 0.0 if stiff else 1.0
+        return np.tile(u, self.n_stages)
+
+
+def cells_for(stage: Stage, per_cell: float, *, max_cells: int) -> int:
+    """Cells in series that give the stage's angle, from the motion of one cell (rad)."""
+    if stage.kind == "stretch" or not (per_cell > 0 and math.isfinite(per_cell)):
+        return 1
+    n = round(abs(stage.magnitude) / per_cell)
+    return int(min(max(n, 1), max(max_cells, 1)))
+
+
+def build_device(target: TargetSpec, cand: Candidate, n_cells: Sequence[int],
+                 name: str | None = None) -> Device:
+    """The device of a candidate: stage modules in series, parallel copies at the tip.
+
+    Stages with ``count > 1`` (fingers) sit on branches attached to the end of the last
+    serial module; the others follow each other on the main branch in stage order.
+    """
+    mods: list[Module] = []
+    serial = [i for i, s in enumerate(target.stages) if s.count == 1]
+    if not serial:
+        raise SpecError("a device needs at least one stage with count = 1 (its backbone)")
+    for i, st in enumerate(target.stages):
+        kw = dict(name=st.name, kind=st.module_kind, cell=cand.cells[i],
+                  n_cells=int(n_cells[i]))
+        if st.kind == "bend" and st.sign < 0:
+            kw["orientation"] = math.pi
+        if st.kind == "twist":
+            kw["tilt"] = cand.tilts[i] * (1.0 if st.sign > 0 else -1.0)
+            kw["shaft_radius"] = st.shaft_radius
+        if st.count > 1:
+            kw.update(count=st.count, attach_to=target.stages[serial[-1]].name,
+                      branch=f"{st.name}-branch", radius=0.5 * cand.cells[i].width)
+        mods.append(Module(**kw))
+    placed: list[Module] = []
+    cursor = 0.0
+    for m in mods:
+        if m.attach_to is None:
+            m = replace(m, start=cursor)
+            cursor = m.end
+        placed.append(m)
+    return Device(tuple(placed), name=name or target.name, pmax=target.constraints.max_pressure)
+
+
+def device_length(device: Device) -> float:
+    """Backbone length plus the longest parallel branch (m)."""
+    main = sum(m.length for m in device.modules if m.attach_to is None)
+    branch = max((m.length for m in device.modules if m.attach_to is not None), default=0.0)
+    return main + branch
