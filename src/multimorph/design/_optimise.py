@@ -184,17 +184,20 @@ def _reachability(space: SearchSpace, model: Any) -> tuple[dict[str, Any], list[
                     f"{top / 1e3:.4g} kPa: the allowed materials and cell size bind "
                     f"(a stiffer material or a larger cell is needed)")
         # too soft a target: even the softest corner starts/completes too late
-        firsts = [(s_ if s_ is not None else e_) for e_, s_, _ in soft]
-        if all(p is not None for p in firsts):
-            low = min(firsts)
-            name = soft[firsts.index(low)][2]
-            if low > st.end_pressure * (1.0 + tol):
-                reasons.append(
-                    f"stage {st.name!r} must complete at {st.end_pressure / 1e3:.4g} kPa, but "
-                    f"the softest allowed design (material {name!r}, every wall at min_wall = "
-                    f"{t.constraints.min_wall * 1e3:.4g} mm, largest chambers) only starts "
-                    f"moving at {low / 1e3:.4g} kPa: min_wall and the allowed materials bind "
-                    f"(thinner walls or a softer material are needed)")
+        firsts = [(s_ if s_ is not None else (e_ if e_ is not None else math.inf))
+                  for e_, s_, _ in soft]
+        low = min(firsts)
+        name = soft[firsts.index(low)][2]
+        if low > st.end_pressure * (1.0 + tol):
+            when = (f"only starts moving at {low / 1e3:.4g} kPa" if math.isfinite(low) else
+                    f"does not start moving below max_pressure = "
+                    f"{t.constraints.max_pressure / 1e3:.4g} kPa")
+            reasons.append(
+                f"stage {st.name!r} must complete at {st.end_pressure / 1e3:.4g} kPa, but "
+                f"the softest allowed design (material {name!r}, every wall at min_wall = "
+                f"{t.constraints.min_wall * 1e3:.4g} mm, largest chambers) {when}: min_wall "
+                f"and the allowed materials bind (thinner walls or a softer material are "
+                f"needed)")
     return reach, reasons
 
 
@@ -355,7 +358,7 @@ def design(target: TargetSpec, *, model: BatchModel | None = None,
     kb = int(np.argmin(f))
     xb, fb = X[kb].copy(), float(f[kb])
     step = 0.08
-    while step > 2e-3 and counted.evaluations + 2 * len(cont) <= s.budget:
+    while step > 2e-3 and counted.evaluations + 2 * len(cont) * S <= s.budget:
         P = np.repeat(xb[None, :], 2 * len(cont), axis=0)
         for k, j in enumerate(cont):
             P[2 * k, j] = min(1.0, xb[j] + step)

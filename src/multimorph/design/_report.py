@@ -22,7 +22,7 @@ def _q(s: str) -> str:
 
 
 def _mm(x: float) -> str:
-    return _q(f"{x * 1e3:.6g} mm")
+    return _q(f"{x * 1e3:.12g} mm")
 
 
 def _is_library(m: Material) -> bool:
@@ -70,7 +70,7 @@ def device_toml(device: Device, *, header: str = "") -> str:
         lines += ["[[module]]", f"name = {_q(m.name)}", f"kind = {_q(m.kind)}",
                   f"cell = {_q(m.name)}", f"cells = {m.n_cells}"]
         if m.kind == "twisting":
-            lines += [f"tilt = {_q(f'{math.degrees(m.tilt):.6g} deg')}",
+            lines += [f"tilt = {_q(f'{math.degrees(m.tilt):.12g} deg')}",
                       f"shaft_radius = {_mm(m.shaft_radius)}", f"strips = {m.strips}"]
         if m.orientation:
             lines.append(f"orientation = {_q(f'{math.degrees(m.orientation):.6g} deg')}")

@@ -1,0 +1,117 @@
+"""The optimiser against a closed-form stand-in cell model (known answers, issue 6).
+
+The stand-in (``test_design_helpers``) gives Pc and Ph in closed form, so a found design can
+be checked independently: its cells' recomputed pressures must meet the targets.
+"""
+
+import itertools
+import math
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from multimorph.design import DesignSettings, SearchSpace, design, target_from_spec
+from multimorph.design._report import device_toml, report_markdown
+from multimorph.device import device_from_spec, simulate_device
+from test_design_helpers import STANDIN, standin_cell, standin_pressures
+
+EXAMPLES = Path(__file__).parents[1] / "examples"
+SMALL = DesignSettings(budget=900, population=16, seed=3)
+
+
+def load(name):
+    return target_from_spec(tomllib.loads((EXAMPLES / name).read_text()))
+
+
+@pytest.mark.parametrize("name", ["target_gripper.toml", "target_jar_lifter.toml",
+                                  "target_double_curvature.toml",
+                                  "target_three_stage.toml"])
+def test_examples_met_with_standin(name):
+    t = load(name)
+    settings = DesignSettings(budget=900 if len(t.stages) == 2 else 2400, population=16, seed=3)
+    r = design(t, model=STANDIN, settings=settings)
+    assert r.feasible, r.explanation
+    assert r.evaluations <= settings.budget
+    best = r.best
+    tol = t.tolerance
+    for st, sr, cell in zip(t.stages, best.stages, best.candidate.cells, strict=True):
+        pc, ph = standin_pressures(cell)                # independent recomputation
+        assert math.isclose(sr.end, ph) and math.isclose(sr.start, pc)
+        assert abs(ph / st.end_pressure - 1) <= tol.pressure
+        if st.start_pressure is not None:
+            assert abs(pc / st.start_pressure - 1) <= tol.pressure
+        assert abs(sr.magnitude / abs(st.magnitude) - 1) <= tol.magnitude
+        assert cell.top_wall >= t.constraints.min_wall - 1e-15
+        assert cell.side_wall >= t.constraints.min_wall - 1e-15
+        assert cell.width <= t.constraints.max_width + 1e-15
+    starts = [s.start for s in best.stages]
+    assert starts == sorted(starts)                     # stage order holds
+    assert all(v <= 0 for v in best.violations.values())
+
+
+def test_seeded_and_reproducible():
+    t = load("target_gripper.toml")
+    a = design(t, model=STANDIN, settings=SMALL)
+    b = design(t, model=STANDIN, settings=SMALL)
+    c = design(t, model=STANDIN, settings=DesignSettings(budget=900, population=16, seed=4))
+    np.testing.assert_array_equal(a.best.candidate.x, b.best.candidate.x)
+    assert a.history == b.history
+    assert not np.array_equal(a.best.candidate.x, c.best.candidate.x)
+
+
+def test_ranked_designs_and_distances():
+    t = load("target_gripper.toml")
+    r = design(t, model=STANDIN, settings=SMALL)
+    objs = [d.objective for d in r.designs]
+    assert objs == sorted(objs) and 1 < len(r.designs) <= SMALL.top
+    for d in r.designs:
+        assert set(d.distances) >= {"fingers.end_pressure", "fingers.magnitude",
+                                    "twister.start_pressure", "twister.end_pressure",
+                                    "twister.magnitude"}
+    h = r.history
+    assert all(b <= a for a, b in itertools.pairwise(h))  # best-so-far never worsens
+
+
+def test_device_toml_round_trip_and_sequence():
+    t = load("target_gripper.toml")
+    r = design(t, model=STANDIN, settings=SMALL)
+    dev = device_from_spec(tomllib.loads(device_toml(r.best.device, header="test")))
+    assert [m.name for m in dev.modules] == ["fingers", "twister"]
+    fingers = dev.module("fingers")
+    assert fingers.count == 3 and fingers.attach_to == "twister"
+    res = simulate_device(dev, cell_model=standin_cell)
+    assert res.sequence.order == ["fingers", "twister"]
+    for sr in r.best.stages:                            # same module predictions
+        pc, ph = res.sequence.windows[sr.name]
+        assert math.isclose(pc, sr.start, rel_tol=1e-9) and math.isclose(ph, sr.end, rel_tol=1e-9)
+        m = res.strains[sr.name]
+        assert math.isclose(abs(np.interp(ph, m.pressure, m.measure)), sr.magnitude,
+                            rel_tol=1e-6)
+    assert "Best design vs target" in report_markdown(r)
+
+
+def test_reverse_bend_orientation():
+    t = load("target_double_curvature.toml")
+    r = design(t, model=STANDIN, settings=SMALL)
+    dev = r.best.device
+    assert dev.module("reverse").orientation == pytest.approx(math.pi)
+    assert dev.module("c-bend").orientation == 0.0
+
+
+def test_decoded_cells_respect_bounds():
+    t = load("target_three_stage.toml")
+    space = SearchSpace(t)
+    rng = np.random.default_rng(0)
+    c = t.constraints
+    for x in rng.random((200, space.dim)):
+        cand = space.decode(x)
+        for cell, st in zip(cand.cells, t.stages, strict=True):
+            for w in (cell.top_wall, cell.bottom_wall, cell.side_wall, cell.end_wall):
+                assert w >= c.min_wall - 1e-15
+            assert cell.width <= c.max_width + 1e-15 and cell.height <= c.max_height + 1e-15
+            assert min(cell.chamber_width, cell.chamber_height, cell.chamber_length) >= 1e-3 - 1e-12
+            if st.kind == "stretch":
+                assert cell.top_wall == cell.bottom_wall
+                assert cell.material == cell.bottom_material
