@@ -1,0 +1,155 @@
+"""Characteristic pressures of a response, from its equilibrium path (pure NumPy).
+
+Definitions (physics-notes §6; the same for every backend):
+
+* **Pc, critical pressure.** If the path has a limit point (the first local maximum of the
+  pressure along the path, after which the pressure falls), Pc is that pressure
+  (``critical_kind = "limit_point"``). Otherwise Pc is the pressure of maximum dκ/dP on the
+  loading curve (``"max_slope"``), the inflection of κ(P) where the ballooning runs fastest.
+  Both are refined by a parabola through the three points around the discrete extremum.
+* **Ph, hardening pressure.** The strain-hardening knee after Pc: the pressure of the most
+  negative d²κ/dP² on the loading curve above Pc (after a snap: on the branch it landed on),
+  where the steep rise turns into the plateau fastest. ``None`` when the curve has no
+  interior minimum of d²κ/dP² below zero after Pc (no hardening reached before the end).
+* **Failure pressure.** The first pressure on the loading curve at which the largest
+  principal stretch reaches the material's break stretch (linear interpolation); ``None``
+  without a break stretch or when not reached.
+
+Curvatures at each are interpolated on the loading curve (at a limit point: on the path).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from multimorph.response._observed import observed_curves
+from multimorph.response._types import CharacteristicPressures, EquilibriumPath
+
+__all__ = ["characteristic_pressures", "critical_pressure", "hardening_pressure"]
+
+
+def _vertex(x: np.ndarray, y: np.ndarray, i: int) -> tuple[float, float]:
+    """Abscissa and value of the parabola through points i-1, i, i+1 (falls back to i)."""
+    if i <= 0 or i >= len(x) - 1:
+        return float(x[i]), float(y[i])
+    x0, x1, x2 = x[i - 1], x[i], x[i + 1]
+    y0, y1, y2 = y[i - 1], y[i], y[i + 1]
+    den = (x0 - x1) * (x0 - x2) * (x1 - x2)
+    if den == 0:
+        return float(x1), float(y1)
+    a = (x2 * (y1 - y0) + x1 * (y0 - y2) + x0 * (y2 - y1)) / den
+    b = (x2 * x2 * (y0 - y1) + x1 * x1 * (y2 - y0) + x0 * x0 * (y1 - y2)) / den
+    if a == 0:
+        return float(x1), float(y1)
+    xv = -b / (2 * a)
+    if not min(x0, x2) <= xv <= max(x0, x2):
+        return float(x1), float(y1)
+    c = y1 - a * x1 * x1 - b * x1
+    return float(xv), float(a * xv * xv + b * xv + c)
+
+
+def _monotone(P: np.ndarray, k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    keep = np.concatenate([[True], np.diff(P) > 1e-12 * max(1.0, float(np.max(np.abs(P))))])
+    return P[keep], k[keep]
+
+
+def _limit_point(path: EquilibriumPath) -> int | None:
+    P = path.pressure
+    for i in range(1, len(P) - 1):
+        if P[i] >= P[i - 1] and P[i] > P[i + 1]:
+            # a genuine fold: the pressure keeps falling or the state turns unstable
+            if not path.stable[i + 1] or (i + 2 < len(P) and P[i + 2] < P[i]):
+                return i
+    return None
+
+
+def critical_pressure(path: EquilibriumPath, loading: EquilibriumPath | None = None,
+                      ) -> tuple[float | None, str | None, float | None]:
+    """Pc, its kind and κ there (see the module docstring for the definition)."""
+    if len(path) < 3:
+        return None, None, None
+    i = _limit_point(path)
+    if i is not None:
+        s = np.arange(len(path), dtype=float)
+        sv, pc = _vertex(s, path.pressure, i)
+        kc = float(np.interp(sv, s, path.curvature))
+        return pc, "limit_point", kc
+    loading = loading if loading is not None else observed_curves(path)[0]
+    P, k = _monotone(loading.pressure, loading.curvature)
+    if len(P) < 3:
+        return None, None, None
+    slope = np.gradient(k, P)
+    j = int(np.argmax(slope))
+    pc, _ = _vertex(P, slope, j)
+    return pc, "max_slope", float(np.interp(pc, P, k))
+
+
+def hardening_pressure(loading: EquilibriumPath, pc: float | None,
+                       ) -> tuple[float | None, float | None]:
+    """Ph and κ there: the knee (most negative d²κ/dP²) of the loading curve above Pc."""
+    if pc is None:
+        return None, None
+    start = 0
+    snaps = np.flatnonzero(loading.extra.get("snap", np.zeros(len(loading))) > 0)
+    if snaps.size:
+        start = int(snaps[-1])
+    P, k = _monotone(loading.pressure[start:], loading.curvature[start:])
+    if len(P) < 4:
+        return None, None
+    slope = np.gradient(k, P)
+    curv = np.gradient(slope, P)
+    above = np.flatnonzero(P >= pc)
+    if above.size == 0:
+        return None, None
+    j = int(above[np.argmin(curv[above])])
+    if curv[j] >= 0 or j >= len(P) - 2:
+        return None, None
+    if j == 0 and snaps.size:
+        return float(P[0]), float(k[0])
+    ph, _ = _vertex(P, curv, j)
+    ph = max(ph, pc)
+    return ph, float(np.interp(ph, P, k))
+
+
+def _failure(loading: EquilibriumPath, break_stretch: float | None,
+             ) -> tuple[float | None, float | None]:
+    if break_stretch is None:
+        return None, None
+    lam = loading.peak_stretch
+    over = np.flatnonzero(lam >= break_stretch)
+    if over.size == 0:
+        return None, None
+    j = int(over[0])
+    if j == 0:
+        return float(loading.pressure[0]), float(loading.curvature[0])
+    f = (break_stretch - lam[j - 1]) / (lam[j] - lam[j - 1])
+    P = loading.pressure[j - 1] + f * (loading.pressure[j] - loading.pressure[j - 1])
+    k = loading.curvature[j - 1] + f * (loading.curvature[j] - loading.curvature[j - 1])
+    return float(P), float(k)
+
+
+def characteristic_pressures(path: EquilibriumPath, *, loading: EquilibriumPath | None = None,
+                             break_stretch: float | None = None) -> CharacteristicPressures:
+    """Pc, Ph and the failure pressure (Pa) of an equilibrium path, with κ at each.
+
+    Parameters
+    ----------
+    path : EquilibriumPath
+        The whole equilibrium path (pressure in Pa, curvature in 1/m).
+    loading : EquilibriumPath, optional
+        Its observed loading curve (computed with :func:`observed_curves` if omitted).
+    break_stretch : float, optional
+        Uniaxial stretch at break of the wall material (-).
+
+    Returns
+    -------
+    CharacteristicPressures
+    """
+    if loading is None:
+        loading = observed_curves(path)[0]
+    pc, kind, kc = critical_pressure(path, loading)
+    ph, kh = hardening_pressure(loading, pc)
+    pf, kf = _failure(loading, break_stretch)
+    return CharacteristicPressures(critical=pc, critical_kind=kind, hardening=ph, failure=pf,
+                                   curvature_at={"critical": kc, "hardening": kh,
+                                                 "failure": kf})

@@ -1,0 +1,119 @@
+"""What a pressure regulator observes, derived from a whole equilibrium path (pure NumPy).
+
+Under pressure control only stable points with rising pressure can be followed. At a limit
+point (pressure maximum along the path, or the end of a stable branch) the system snaps at
+constant pressure to the next stable rising branch further along the path, if there is one
+(strain hardening provides it); otherwise the loading curve ends there (runaway). Unloading
+is the same rule applied to the path walked backwards with falling pressure: it snaps back at
+the lower turning point, so loading and unloading enclose an elastic hysteresis loop.
+
+Snap landing points are interpolated linearly along the path at the snap pressure and
+marked in ``extra["snap"]`` (1.0 where the point was reached by a jump).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from multimorph.response._types import _PATH_ARRAYS, EquilibriumPath
+
+__all__ = ["observed_curves", "observed_positions"]
+
+
+def observed_positions(pressure: np.ndarray, stable: np.ndarray) -> tuple[np.ndarray,
+                                                                            np.ndarray, bool]:
+    """Positions along the path (fractional indices) of the pressure-controlled loading curve.
+
+    Parameters
+    ----------
+    pressure : ndarray (n,)
+        Pressure along the path (any unit), in path order.
+    stable : ndarray (n,) of bool
+        Stability at fixed pressure.
+
+    Returns
+    -------
+    positions : ndarray (m,)
+        Fractional path indices of the observed points, starting at 0.
+    snap : ndarray (m,) of bool
+        True where the point was reached by a snap at constant pressure.
+    complete : bool
+        False when the curve ends in a runaway (no stable branch to land on).
+
+    Examples
+    --------
+    >>> P = np.array([0.0, 1.0, 2.0, 1.5, 1.0, 1.5, 2.5, 3.0])
+    >>> st = np.array([1, 1, 1, 0, 0, 1, 1, 1], bool)
+    >>> pos, snap, ok = observed_positions(P, st)
+    >>> pos.tolist(), snap.tolist(), ok
+    ([0.0, 1.0, 2.0, 5.5, 6.0, 7.0], [False, False, False, True, False, False], True)
+    """
+    P = np.asarray(pressure, float)
+    st = np.asarray(stable, bool)
+    n = P.shape[0]
+    pos, snap = [0.0], [False]
+    i = 0
+    complete = True
+    while i < n - 1:
+        if P[i + 1] > P[i] and st[i + 1]:
+            pos.append(float(i + 1))
+            snap.append(False)
+            i += 1
+            continue
+        p_star = P[i]
+        landing = None
+        for j in range(i + 1, n - 1):
+            if P[j + 1] > P[j] and st[j + 1] and P[j] <= p_star < P[j + 1]:
+                landing = j + (p_star - P[j]) / (P[j + 1] - P[j])
+                break
+        if landing is None:
+            complete = False
+            break
+        pos.append(float(landing))
+        snap.append(True)
+        i = int(np.floor(landing))
+    return np.asarray(pos), np.asarray(snap, bool), complete
+
+
+def _interp_path(path: EquilibriumPath, pos: np.ndarray, snap: np.ndarray) -> EquilibriumPath:
+    idx = np.arange(len(path), dtype=float)
+
+    def at(a: np.ndarray) -> np.ndarray:
+        a = np.asarray(a, float)
+        if a.ndim == 1:
+            return np.interp(pos, idx, a)
+        return np.stack([np.interp(pos, idx, a[:, k]) for k in range(a.shape[1])], axis=1)
+
+    kw = {name: at(getattr(path, name)) for name in _PATH_ARRAYS if name != "stable"}
+    kw["stable"] = np.ones(pos.shape[0], bool)
+    extra = {k: at(v) for k, v in path.extra.items() if np.asarray(v).dtype != bool}
+    extra["snap"] = snap.astype(float)
+    return EquilibriumPath(**kw, extra=extra)
+
+
+def observed_curves(path: EquilibriumPath) -> tuple[EquilibriumPath, EquilibriumPath]:
+    """Loading and unloading curves a pressure regulator observes on ``path``.
+
+    Parameters
+    ----------
+    path : EquilibriumPath
+        The whole equilibrium path from the unloaded state, in path order.
+
+    Returns
+    -------
+    loading, unloading : EquilibriumPath
+        Loading in order of rising pressure (ending at the path's end, or at the runaway
+        limit point); unloading from the end of loading back to zero pressure, in order of
+        falling pressure. ``extra["snap"]`` marks points reached by a jump.
+    """
+    n = len(path)
+    if n < 2:
+        return path, path
+    pos, snap, complete = observed_positions(path.pressure, path.stable)
+    loading = _interp_path(path, pos, snap)
+    if not complete or pos[-1] < n - 1:
+        rev = pos[::-1]
+        return loading, _interp_path(path, rev, np.zeros(rev.shape[0], bool))
+    rpos, rsnap, _ = observed_positions(-path.pressure[::-1], path.stable[::-1])
+    unloading = _interp_path(path, (n - 1) - rpos, rsnap)
+    return loading, unloading

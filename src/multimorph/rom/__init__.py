@@ -1,0 +1,35 @@
+"""Reduced-order (Ritz energy) model of pneu-net unit cells and a generic path tracer.
+
+* :func:`solve_cell` — one cell, whole equilibrium path, observed curves, Pc/Ph (a
+  :class:`~multimorph.response.Response`);
+* :func:`solve_cells` — the same model over thousands of designs at once (``vmap``), a
+  :class:`CellBatch` in, a :class:`ResponseBatch` out;
+* :func:`trace_path` — pseudo-arc-length continuation of any energy Π(q, p) (used by the cell
+  model, and by the tests on the Gent sphere and tube).
+
+The model is derived in ``docs/rom.md``.
+"""
+
+from multimorph.rom._cell_energy import COORDINATES, RomOptions, cell_kernel
+from multimorph.rom._continuation import (
+    ContinuationError,
+    RawPath,
+    TracerSettings,
+    make_tracer,
+    trace_path,
+)
+from multimorph.rom._model import DEFAULT_SETTINGS, cell_theta, solve_cell
+
+__all__ = [
+    "COORDINATES",
+    "DEFAULT_SETTINGS",
+    "ContinuationError",
+    "RawPath",
+    "RomOptions",
+    "TracerSettings",
+    "cell_kernel",
+    "cell_theta",
+    "make_tracer",
+    "solve_cell",
+    "trace_path",
+]

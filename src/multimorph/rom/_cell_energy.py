@@ -1,0 +1,339 @@
+"""Ritz energy of a pneu-net unit cell, dimensionless (lengths / d, energies / (μ d³)).
+
+Coordinates (all dimensionless, zero in the reference state)::
+
+    q = (k, phi_t, phi_s, e)
+    k      = κ d        bend angle of the cell (curvature × cell length)
+    phi_t  top-wall bulge: half-angle (rad) of the circular arc of the top wall's inner face
+           across the chamber width, at mid-chamber
+    phi_s  side-wall bulge: half-angle of the side walls' arcs across the chamber height
+    e      = λ0 − 1     axial strain of the bottom wall's mid-plane (the reference line)
+
+The derivation and assumptions are in ``docs/rom.md``. The energy is
+
+    Π = U_bottom + U_end_blocks + U_top_corners + U_top + 2 U_side − p ΔV,   p = P/μ,
+
+each U a quadrature of the material's energy density (exactly incompressible: the third
+stretch is 1/(λ1 λ2)), ΔV the exact change of the chamber volume for the assumed
+kinematics. Geometry and material parameters travel in a ``theta`` dict of scalars so one
+compiled kernel serves any design (and ``vmap`` serves thousands).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from functools import lru_cache
+from typing import Any
+
+import jax.numpy as jnp
+import numpy as np
+
+from multimorph.errors import SpecError
+from multimorph.materials._math import JAX_MATH
+from multimorph.materials._registry import Law, get_law
+from multimorph.rom._kernels import c3, gauss, sinc
+
+__all__ = ["COORDINATES", "GEOMETRY_KEYS", "CellKernel", "RomOptions", "cell_kernel"]
+
+#: Names of the generalised coordinates, in order.
+COORDINATES = ("k", "phi_t", "phi_s", "e")
+#: Dimensionless geometry entries of ``theta`` (lengths divided by the cell length d).
+GEOMETRY_KEYS = ("w", "h", "ht", "hb", "ws", "df")
+
+
+@dataclass(frozen=True)
+class RomOptions:
+    """Modelling switches and quadrature orders of the cell model.
+
+    Parameters
+    ----------
+    rigid_walls : bool
+        All walls but the top are rigid: only the top-wall bulge is free (k = phi_s = e = 0).
+        With ``end_taper=False`` and ``wall_bending=False`` this is exactly the clamped
+        plane-strain strip of physics-notes §3.6.
+    rigid_bottom : bool
+        The bottom wall's mid-plane is inextensible (e = 0); it still bends.
+    end_taper : bool
+        Bulges vanish at the end walls (finite chamber length): each bulge angle is
+        ``phi · g(y)`` with g rising as sin² from 0 at an end wall to 1 over a taper length
+        ``taper * span`` (at most half the chamber length). ``False``: plane-strain bulges.
+    wall_bending : bool
+        Through-thickness quadrature of the arc stretch of the bulging walls (their plate
+        bending stiffness). ``False``: membranes.
+    taper : float
+        Taper length over the bulging span (chamber width for the top wall, chamber height
+        for the side walls).
+    n_span, n_thick, n_taper, n_layer : int
+        Gauss points across a bulging span (half span for the top wall), through a wall's
+        thickness, along each end taper, and through each solid layer.
+    """
+
+    rigid_walls: bool = False
+    rigid_bottom: bool = False
+    end_taper: bool = True
+    wall_bending: bool = True
+    taper: float = 1.0
+    n_span: int = 4
+    n_thick: int = 2
+    n_taper: int = 4
+    n_layer: int = 3
+
+    @property
+    def free(self) -> tuple[int, ...]:
+        """Indices of the free coordinates in :data:`COORDINATES`."""
+        if self.rigid_walls:
+            return (1,)
+        if self.rigid_bottom:
+            return (0, 1, 2)
+        return (0, 1, 2, 3)
+
+
+def _law(name: str) -> Law:
+    law = get_law(name)
+    if law.variables != "invariants":
+        raise SpecError(
+            f"the reduced cell model needs an invariant-based law (neo-hooke, mooney-rivlin, "
+            f"yeoh, reduced-polynomial-N, gent, arruda-boyce); got {law.name}")
+    return law
+
+
+def _arc(phi: Any, s: Any) -> tuple[Any, Any]:
+    """Circular arc of half-angle phi over the chord [-1, 1]: chord and bulge coordinates.
+
+    A material point at reference chord coordinate ``s`` (uniform stretch 1/sinc(phi))
+    goes to (X, Z) = (sin(phi s), cos(phi s) − cos(phi)) / sin(phi), written with sinc so
+    that it is exact at phi = 0 (X = s, Z = 0).
+    """
+    sp = sinc(phi)
+    X = s * sinc(phi * s) / sp
+    Z = 0.5 * phi * (1.0 - s * s) * sinc(0.5 * phi * (1.0 + s)) * sinc(0.5 * phi * (1.0 - s)) / sp
+    return X, Z
+
+
+def _segment_area(phi: Any) -> Any:
+    """Area of the circular segment over a unit half-chord: (2phi − sin 2phi)/(2 sin² phi)."""
+    return 4.0 * phi * c3(2.0 * phi) / sinc(phi) ** 2
+
+
+_S_VOL, _W_VOL = gauss(8, 0.0, 1.0)
+
+
+def _segment_moment(phi: Any) -> Any:
+    """First moment of the segment about its chord (unit half-chord): ∫ Z²/2 dX (Gauss)."""
+    s = jnp.asarray(_S_VOL)
+    X_s = jnp.cos(phi * s) / sinc(phi)
+    _, Z = _arc(phi, s)
+    return 2.0 * jnp.sum(jnp.asarray(_W_VOL) * 0.5 * Z * Z * X_s)
+
+
+def _taper_nodes(opts: RomOptions, dc: Any, span: Any) -> tuple[Any, Any, Any]:
+    """y-quadrature of one bulge over the chamber length: (weights, g, dg/dy), shape (ny,).
+
+    The first node stands for the plateau (g = 1) of length dc − 2ℓ; the others are Gauss
+    nodes of the two sin² tapers of length ℓ = min(taper · span, dc/2) (both ends at once).
+    """
+    if not opts.end_taper:
+        return jnp.reshape(dc, (1,)), jnp.ones(1), jnp.zeros(1)
+    ell = jnp.minimum(opts.taper * span, 0.5 * dc)
+    xi, wx = gauss(opts.n_taper, 0.0, 1.0)
+    arg = 0.5 * np.pi * np.asarray(xi)
+    g = np.concatenate([[1.0], np.sin(arg) ** 2])
+    gp = jnp.concatenate([jnp.zeros(1), (0.5 * np.pi / ell) * np.sin(2.0 * arg)])
+    w = jnp.concatenate([jnp.reshape(dc - 2.0 * ell, (1,)), 2.0 * ell * np.asarray(wx)])
+    return w, jnp.asarray(g), gp
+
+
+@dataclass(frozen=True)
+class CellKernel:
+    """The compiled-once ingredients of the cell model for one pair of laws and options.
+
+    Attributes
+    ----------
+    energy : callable
+        ``energy(qf, p, theta)``: Π/(μ d³) for the free coordinates ``qf`` at p = P/μ.
+    measures : callable
+        ``measures(qf, p, theta) -> dict`` with ``volume`` (ΔV/d³), ``peak_stretch``,
+        ``lockup`` (largest (I1 − 3)/Jm, 0 without lock-up).
+    admissible : callable
+        ``admissible(qf, theta)``: the lock-up fraction (must stay below 1).
+    n_free : int
+    options : RomOptions
+    """
+
+    energy: Callable[..., Any]
+    measures: Callable[..., Any]
+    admissible: Callable[..., Any]
+    n_free: int
+    options: RomOptions
+    wall_law: str
+    bottom_law: str
+
+    def full(self, qf: Any) -> Any:
+        """Full coordinate vector (k, phi_t, phi_s, e) from the free ones."""
+        q = jnp.zeros((*qf.shape[:-1], 4), dtype=float)
+        return q.at[..., np.array(self.options.free)].set(qf)
+
+
+@lru_cache(maxsize=16)
+def cell_kernel(wall_law: str, bottom_law: str, options: RomOptions = RomOptions()) -> CellKernel:
+    """Build the energy/measure functions for a wall law, a bottom law and options.
+
+    ``theta`` holds the geometry (:data:`GEOMETRY_KEYS`, over d), ``mw`` and ``mb`` (dicts
+    of the wall/bottom law parameters with moduli divided by the wall μ).
+    """
+    lw, lb = _law(wall_law), _law(bottom_law)
+    o = options
+    free = o.free
+    # quadrature (static NumPy): top half-span, side full span, thickness, solid layers
+    s_top, w_top = gauss(o.n_span, 0.0, 1.0)
+    w_top = 2.0 * w_top
+    s_side, w_side = gauss(2 * o.n_span, -1.0, 1.0)
+    if o.wall_bending:
+        t_nodes, t_w = gauss(o.n_thick, 0.0, 1.0)
+    else:
+        t_nodes, t_w = np.array([0.5]), np.array([1.0])
+    tn = np.asarray(t_nodes)[None, None, :]
+    tw = np.asarray(t_w)[None, None, :]
+    zl, wl = gauss(o.n_layer, 0.0, 1.0)
+    zl2, wl2 = gauss(o.n_layer + 1, 0.0, 1.0)
+
+    def full(qf: Any) -> list[Any]:
+        zero = jnp.zeros((), dtype=float)
+        return [qf[free.index(i)] if i in free else zero for i in range(4)]
+
+    def geometry(th: Any) -> dict[str, Any]:
+        g = {k: th[k] for k in GEOMETRY_KEYS}
+        g["wc"] = g["w"] - 2.0 * g["ws"]
+        g["hc"] = g["h"] - g["ht"] - g["hb"]
+        g["dc"] = 1.0 - 2.0 * g["df"]
+        return g
+
+    def arc_terms(phi0: Any, s: np.ndarray) -> tuple[Any, Any, Any, Any]:
+        X, Z = _arc(phi0, s)
+        sp = sinc(phi0)
+        Xs = jnp.cos(phi0 * s) / sp
+        Zs = -phi0 * s * sinc(phi0 * s) / sp
+        return X, Z, Xs, Zs
+
+    def membrane(phi0: Any, a: Any, thick: Any, s: np.ndarray, w_s: np.ndarray, dc: Any,
+                 lam_y: Callable[[Any], Any], height: Callable[[Any, Any], Any],
+                 normal_z: Callable[[Any, Any], Any]) -> tuple[Any, Any, Any, Any]:
+        """Invariants, weights and largest stretch at (y, s, t) nodes of a bulging wall.
+
+        Section shape at y: the mid-chamber circular arc (half-angle phi0, half-chord a)
+        scaled normal to its chord by g(y) (g = 1 on the plateau, → 0 at the end walls).
+        """
+        wy, gy, gpy = _taper_nodes(o, dc, 2.0 * a)
+        X, Z, Xs, Zs = arc_terms(phi0, s)
+        g = gy[:, None, None]
+        gp = gpy[:, None, None]
+        X, Z, Xs, Zs = (v[None, :, None] for v in (X, Z, Xs, Zs))
+        lam_s0_sq = Xs * Xs + g * g * Zs * Zs            # inner-face stretch² along the span
+        z_in = height(a * X, a * g * Z)
+        lam3m = 1.0 / (jnp.sqrt(lam_s0_sq) * lam_y(z_in))
+        # bending strain of the fibre at t, measured from the mid-surface (curvature g/ρ)
+        curv = g * phi0 * sinc(phi0) / a
+        fac = 1.0 + (thick * tn - 0.5 * thick) * lam3m * curv if o.wall_bending else 1.0
+        G11 = lam_s0_sq * fac * fac
+        ly = lam_y(z_in + thick * tn * lam3m * normal_z(g, phi0 * s[None, :, None]))
+        G22 = ly * ly + (a * gp * Z) ** 2
+        G12 = g * Zs * a * gp * Z
+        tr = G11 + G22
+        det = G11 * G22 - G12 * G12
+        I1 = tr + 1.0 / det
+        I2 = det + tr / det
+        w = wy[:, None, None] * np.asarray(w_s)[None, :, None] * tw * a * thick
+        r = jnp.sqrt(0.25 * (G11 - G22) ** 2 + G12 * G12)
+        lam_max = jnp.sqrt(jnp.maximum(0.5 * tr + r, 1.0 / det))
+        return I1, I2, w, lam_max
+
+    def fields(qf: Any, th: Any) -> dict[str, Any]:
+        """Invariants (I1, I2), weights and largest stretches at all quadrature points."""
+        k, phi_t, phi_s, e = full(qf)
+        g = geometry(th)
+        hb, hc, ht, ws, wc, dc, w = g["hb"], g["hc"], g["ht"], g["ws"], g["wc"], g["dc"], g["w"]
+        zb = 0.5 * hb
+
+        def lam_y(z: Any) -> Any:
+            return 1.0 + e + k * (z - zb)
+
+        # solid regions, uniaxial along y: bottom wall (full length), then the end blocks
+        # (2 df long, full section above the bottom) and the top-wall strips over the side
+        # walls (chamber length)
+        z_b = hb * zl
+        w_b = w * hb * wl
+        z_w = jnp.concatenate([hb + (hc + ht) * zl2, hb + hc + ht * zl])
+        w_w = jnp.concatenate([2.0 * g["df"] * w * (hc + ht) * wl2, dc * 2.0 * ws * ht * wl])
+        lb_, lw_ = lam_y(z_b), lam_y(z_w)
+        out = {"bottom": (lb_ * lb_ + 2.0 / lb_, 2.0 * lb_ + 1.0 / (lb_ * lb_), w_b, lb_),
+               "solid": (lw_ * lw_ + 2.0 / lw_, 2.0 * lw_ + 1.0 / (lw_ * lw_), w_w, lw_)}
+        # top wall over the chamber: chord at z = hb + hc, bulging up (half span, symmetric)
+        out["top"] = membrane(phi_t, 0.5 * wc, ht, s_top, w_top, dc, lam_y,
+                              lambda x, zz: hb + hc + zz,
+                              lambda gg, ang: jnp.cos(ang))
+        # side walls: chord vertical from z = hb to hb + hc, bulging outward; two of them
+        a_s = 0.5 * hc
+        I1, I2, ww, lm = membrane(phi_s, a_s, ws, s_side, w_side, dc, lam_y,
+                                  lambda x, zz: hb + a_s + x,
+                                  lambda gg, ang: jnp.sin(ang))
+        out["side"] = (I1, I2, 2.0 * ww, lm)
+        return out
+
+    def w_wall(I1: Any, I2: Any, th: Any) -> Any:
+        return lw.energy(I1, I2, xp=JAX_MATH, **th["mw"])
+
+    def w_bot(I1: Any, I2: Any, th: Any) -> Any:
+        return lb.energy(I1, I2, xp=JAX_MATH, **th["mb"])
+
+    def volume(qf: Any, th: Any) -> Any:
+        """ΔV/d³: the exact volume change of the chamber for the assumed kinematics."""
+        k, phi_t, phi_s, e = full(qf)
+        g = geometry(th)
+        hb, hc, wc, dc = g["hb"], g["hc"], g["wc"], g["dc"]
+        zb = 0.5 * hb
+        a_t, a_s = 0.5 * wc, 0.5 * hc
+        dv = dc * wc * hc * (e + k * (hb + 0.5 * hc - zb))
+        wy, gy, _ = _taper_nodes(o, dc, 2.0 * a_t)
+        A = a_t**2 * _segment_area(phi_t) * jnp.sum(wy * gy)
+        M = a_t**3 * _segment_moment(phi_t) * jnp.sum(wy * gy * gy)
+        dv += A * (1.0 + e + k * (hb + hc - zb)) + k * M
+        wy, gy, _ = _taper_nodes(o, dc, 2.0 * a_s)
+        As = a_s**2 * _segment_area(phi_s) * jnp.sum(wy * gy)
+        dv += 2.0 * As * (1.0 + e + k * (hb + 0.5 * hc - zb))
+        return dv
+
+    def strain_energy(qf: Any, th: Any) -> Any:
+        f = fields(qf, th)
+        I1, I2, w, _ = f["bottom"]
+        u = jnp.sum(w * w_bot(I1, I2, th))
+        for key in ("solid", "top", "side"):
+            I1, I2, w, _ = f[key]
+            u += jnp.sum(w * w_wall(I1, I2, th))
+        return u
+
+    def energy(qf: Any, p: Any, th: Any) -> Any:
+        return strain_energy(qf, th) - p * volume(qf, th)
+
+    def lockup(qf: Any, th: Any) -> Any:
+        f = fields(qf, th)
+        frac = jnp.asarray(0.0)
+        if lb.lockup_jm:
+            frac = jnp.maximum(frac, jnp.max(f["bottom"][0] - 3.0) / th["mb"][lb.lockup_jm])
+        if lw.lockup_jm:
+            for key in ("solid", "top", "side"):
+                frac = jnp.maximum(frac, jnp.max(f[key][0] - 3.0) / th["mw"][lw.lockup_jm])
+        return frac
+
+    def measures(qf: Any, p: Any, th: Any) -> dict[str, Any]:
+        f = fields(qf, th)
+        peak = jnp.asarray(1.0)
+        for key in ("bottom", "solid"):
+            lam = f[key][3]
+            peak = jnp.maximum(peak, jnp.max(jnp.maximum(lam, lam**-0.5)))
+        for key in ("top", "side"):
+            peak = jnp.maximum(peak, jnp.max(f[key][3]))
+        return {"volume": volume(qf, th), "peak_stretch": peak, "lockup": lockup(qf, th)}
+
+    return CellKernel(energy=energy, measures=measures, admissible=lockup, n_free=len(free),
+                      options=o, wall_law=lw.name, bottom_law=lb.name)

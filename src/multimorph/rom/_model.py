@@ -1,0 +1,162 @@
+"""The reduced model of one unit cell: from a :class:`CellGeometry` to a :class:`Response`."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from multimorph.errors import SpecError
+from multimorph.geometry import CellGeometry
+from multimorph.materials._material import Material
+from multimorph.response import EquilibriumPath, Response, build_response
+from multimorph.rom._cell_energy import COORDINATES, RomOptions, cell_kernel
+from multimorph.rom._continuation import (
+    ContinuationError,
+    RawPath,
+    TracerSettings,
+    make_tracer,
+    raw_path_from_arrays,
+)
+
+__all__ = ["DEFAULT_SETTINGS", "cell_theta", "material_theta", "solve_cell"]
+
+#: Step control of the cell tracer: coordinates (κd, φt, φs, e) and p = P/μ scaled so that
+#: one unit of arc length is about a radian of bulge or bend, or 0.2 μ of pressure.
+DEFAULT_SETTINGS = TracerSettings(q_scale=(1.0, 1.0, 1.0, 0.1), p_scale=0.2, ds0=0.02,
+                                  ds_max=0.12, n_steps=200, n_newton=8, tol=1e-9)
+
+
+def material_theta(material: Material, mu: float) -> dict[str, float]:
+    """Law parameters with moduli divided by ``mu`` (dimensionless, for the kernel)."""
+    law = material.law
+    p = material.params_1972
+    return {k: (p[k] / mu if u == "Pa" else p[k])
+            for k, u in zip(law.param_names, law.param_units, strict=True)}
+
+
+def cell_theta(cell: CellGeometry) -> dict[str, Any]:
+    """Dimensionless kernel parameters of ``cell``: lengths / d and moduli / μ."""
+    d = cell.length
+    mu = cell.mu
+    assert cell.bottom_material is not None
+    return {"w": cell.width / d, "h": cell.height / d, "ht": cell.top_wall / d,
+            "hb": cell.bottom_wall / d, "ws": cell.side_wall / d, "df": cell.end_wall / d,
+            "mw": material_theta(cell.material, mu),
+            "mb": material_theta(cell.bottom_material, mu)}
+
+
+@lru_cache(maxsize=16)
+def _kernels(wall_law: str, bottom_law: str, options: RomOptions,
+             settings: TracerSettings) -> tuple[Any, Any, Any]:
+    ck = cell_kernel(wall_law, bottom_law, options)
+    tracer = jax.jit(make_tracer(ck.energy, ck.n_free, settings, ck.admissible))
+    measures = jax.jit(jax.vmap(ck.measures, in_axes=(0, 0, None)))
+    return ck, tracer, measures
+
+
+def _check_pmax(p_max: float) -> float:
+    p = float(p_max)
+    if not (math.isfinite(p) and p > 0):
+        raise SpecError(f"p_max must be a positive pressure, got {p_max!r} Pa")
+    return p
+
+
+@dataclass(frozen=True)
+class _Solved:
+    raw: RawPath
+    q: np.ndarray
+    meas: dict[str, np.ndarray]
+
+
+def path_from_raw(cell: CellGeometry, raw: RawPath, q: np.ndarray,
+                  meas: dict[str, np.ndarray]) -> EquilibriumPath:
+    """Dimensional :class:`EquilibriumPath` of a traced cell (Pa, 1/m, m³)."""
+    d, mu = cell.length, cell.mu
+    v0 = cell.chamber_width * cell.chamber_height * cell.chamber_length
+    return EquilibriumPath(
+        pressure=raw.p * mu,
+        curvature=q[:, 0] / d,
+        twist_rate=np.zeros(len(raw.p)),
+        axial_stretch=1.0 + q[:, 3],
+        volume=v0 + np.asarray(meas["volume"]) * d**3,
+        peak_stretch=np.asarray(meas["peak_stretch"]),
+        stable=raw.stable,
+        extra={"q": q, "lockup": np.asarray(meas["lockup"]),
+               "tangent_p": raw.tangent_p},
+    )
+
+
+def solve_cell(cell: CellGeometry, p_max: float, *, options: RomOptions | None = None,
+               settings: TracerSettings | None = None) -> Response:
+    """Equilibrium path, observed curves and characteristic pressures of a unit cell.
+
+    Parameters
+    ----------
+    cell : CellGeometry
+        The cell (lengths in m, materials with invariant-based laws).
+    p_max : float
+        Largest gauge pressure to trace to (Pa).
+    options : RomOptions, optional
+        Modelling switches (rigid walls/bottom, end taper, wall bending, quadrature).
+    settings : TracerSettings, optional
+        Step control (defaults to :data:`DEFAULT_SETTINGS`).
+
+    Returns
+    -------
+    Response
+        ``backend = "rom"``; ``path.extra["q"]`` holds the coordinates (κd, φt, φs, e).
+
+    Raises
+    ------
+    ContinuationError
+        If the path cannot be traced to ``p_max`` (the message gives the pressure, the step
+        and the reason, e.g. Gent lock-up or a Newton failure).
+
+    Examples
+    --------
+    >>> from multimorph.materials import Material
+    >>> m = Material("gent", {"mu": 2.45e5, "jm": 20.0})
+    >>> cell = CellGeometry(20e-3, 10e-3, 8e-3, 0.8e-3, 2e-3, 1.5e-3, 1.5e-3, material=m,
+    ...                     bottom_material=m.scaled(5.0))
+    >>> r = solve_cell(cell, 150e3)
+    >>> r.characteristic.critical_kind
+    'max_slope'
+    """
+    opts = options or RomOptions()
+    st = settings or DEFAULT_SETTINGS
+    p_max = _check_pmax(p_max)
+    assert cell.bottom_material is not None
+    ck, tracer, measures = _kernels(cell.material.model, cell.bottom_material.model, opts, st)
+    theta = jax.tree_util.tree_map(jnp.asarray, cell_theta(cell))
+    mu = cell.mu
+    out = tracer(jnp.zeros(ck.n_free), theta, jnp.asarray(p_max / mu))
+    raw = raw_path_from_arrays(out, ck.n_free)
+    if not raw.ok:
+        where = (f" at step {raw.fail_step}, P = {raw.fail_p * mu / 1e3:.4g} kPa"
+                 if raw.status == 2 else "")
+        from multimorph.rom._continuation import REASON_TEXT, STATUS_TEXT
+
+        why = STATUS_TEXT.get(raw.status, "")
+        if raw.status == 2:
+            why += f": {REASON_TEXT.get(raw.reason, '')}"
+        raise ContinuationError(
+            f"cell ROM: could not trace the equilibrium path to {p_max / 1e3:.4g} kPa"
+            f"{where} ({why}; last converged P = {raw.p[-1] * mu / 1e3:.4g} kPa)")
+    qf = raw.q
+    meas = {k: np.asarray(v) for k, v in measures(jnp.asarray(qf), jnp.asarray(raw.p),
+                                                  theta).items()}
+    q = np.zeros((qf.shape[0], 4))
+    q[:, list(opts.free)] = qf
+    path = path_from_raw(cell, raw, q, meas)
+    return build_response(
+        path, length=cell.length, shear_modulus=mu, backend="rom",
+        break_stretch=cell.material.break_stretch,
+        meta={"model": "cell-ritz", "coordinates": list(COORDINATES),
+              "options": opts.__dict__.copy(), "points": len(raw.p),
+              "rejected_steps": raw.n_rejected, "p_max": p_max})
