@@ -1,7 +1,7 @@
 """Simulate a device: one cell response per distinct cell, module strains, shapes, sequence.
 
 The cell backend is one interface, ``cell_model(cell, p_max) -> Response``: the reduced
-model by default (:func:`multimorph.rom.simulate_cell`); the FE backend fits the same slot.
+model by default (:func:`multimorph.rom.solve_cell`); the FE backend fits the same slot.
 """
 
 from __future__ import annotations
@@ -26,10 +26,10 @@ CellModel = Callable[[CellGeometry, float], Response]
 
 
 def default_cell_model(cell: CellGeometry, p_max: float) -> Response:
-    """The reduced-order cell model (``multimorph.rom.simulate_cell``)."""
-    from multimorph.rom import simulate_cell
+    """The reduced-order cell model (:func:`multimorph.rom.solve_cell`)."""
+    from multimorph.rom import solve_cell
 
-    return simulate_cell(cell, p_max)
+    return solve_cell(cell, p_max)
 
 
 def _rot_y(angle: float) -> np.ndarray:
