@@ -10,6 +10,7 @@
 The model is derived in ``docs/rom.md``.
 """
 
+from multimorph.rom._batch import CellBatch, ResponseBatch, simulate_cells, solve_batch
 from multimorph.rom._cell_energy import COORDINATES, RomOptions, cell_kernel
 from multimorph.rom._continuation import (
     ContinuationError,
@@ -20,16 +21,24 @@ from multimorph.rom._continuation import (
 )
 from multimorph.rom._model import DEFAULT_SETTINGS, cell_theta, solve_cell
 
+#: Alias used by the device, sweep, design and FE-comparison rooms.
+simulate_cell = solve_cell
+
 __all__ = [
     "COORDINATES",
     "DEFAULT_SETTINGS",
+    "CellBatch",
     "ContinuationError",
     "RawPath",
+    "ResponseBatch",
     "RomOptions",
     "TracerSettings",
     "cell_kernel",
     "cell_theta",
     "make_tracer",
+    "simulate_cell",
+    "simulate_cells",
+    "solve_batch",
     "solve_cell",
     "trace_path",
 ]
