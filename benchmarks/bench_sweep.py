@@ -72,7 +72,7 @@ def main() -> None:
     ap.add_argument("--designs", type=int, default=10_000)
     ap.add_argument("--batch-size", type=int, default=None)
     ap.add_argument("--workers", type=int, default=2)
-    ap.add_argument("--pmax", default="200 kPa")
+    ap.add_argument("--pmax", default="500 kPa")
     ap.add_argument("--outputs", default="characteristic,curves")
     ap.add_argument("--backend", default="rom", help="rom, or module:Factory")
     ap.add_argument("--modes", default="raw,threads,local,resume")

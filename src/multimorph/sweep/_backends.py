@@ -160,6 +160,8 @@ def _import_model(module: str, issue: str) -> Any:
 #: Names tried, in order, for the reduced model's batched entry point
 #: ``fn(cells, p_max, **options) -> list[Response | Exception]``.
 ROM_BATCH_NAMES = ("simulate_batch", "simulate_cells", "evaluate_batch")
+#: Names tried for the single-design entry point ``fn(cell, p_max, **options) -> Response``.
+ROM_SINGLE_NAMES = ("solve_cell", "simulate_cell")
 
 
 class RomBackend:
@@ -185,10 +187,11 @@ class RomBackend:
         for n in ROM_BATCH_NAMES:
             if callable(getattr(rom, n, None)):
                 return getattr(rom, n), True
-        if callable(getattr(rom, "simulate_cell", None)):
-            return rom.simulate_cell, False
-        raise MultimorphError("multimorph.rom has no simulate_cell or batched entry point "
-                              f"({', '.join(ROM_BATCH_NAMES)}) yet (issue 3)")
+        for n in ROM_SINGLE_NAMES:
+            if callable(getattr(rom, n, None)):
+                return getattr(rom, n), False
+        raise MultimorphError(f"multimorph.rom has no entry point ({', '.join(ROM_SINGLE_NAMES)}"
+                              f", or batched {', '.join(ROM_BATCH_NAMES)}) yet (issue 3)")
 
     def validate(self, pmax: float, options: Mapping[str, Any]) -> None:
         """Check that the model is there (before any task runs)."""
