@@ -18,9 +18,12 @@ EXAMPLES = Path(__file__).parents[1] / "examples"
 @pytest.fixture(scope="module", autouse=True)
 def _need_rom() -> None:
     try:
-        RomBackend().validate(1.0, {})
+        batched = RomBackend._api()[1]
     except MultimorphError as exc:
         pytest.skip(f"reduced model not available: {exc}")
+    if not batched:
+        pytest.skip("the reduced model has no batched entry point yet (one design at a time "
+                    "is too slow for these tests)")
 
 
 def small(name: str, num: int, tmp: Path) -> Path:
