@@ -56,7 +56,8 @@ def design_command(
         robustness_figure,
         sequence_figure,
     )
-    from multimorph.design._verify import fe_available, verify_fe
+    from multimorph.design._verify import fe_available
+    from multimorph.design._verify import verify_fe as run_fe_check
     from multimorph.errors import MultimorphError, SpecError
     from multimorph.io import atomic_output_dir, load_toml, write_json
     from multimorph.units import to_si
@@ -101,7 +102,7 @@ def design_command(
         verification = None
         if verify_fe and best is not None and result.feasible:
             with console.status("FE verification of the best design…", spinner="dots"):
-                verification = verify_fe(spec, best)
+                verification = run_fe_check(spec, best)
         folder = out if out is not None else Path("multimorph-out") / f"design-{target.stem}"
         report = report_dict(result, rob, sequence, verification)
         files = ["report.json", "report.md", "convergence.png"]

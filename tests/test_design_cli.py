@@ -1,0 +1,94 @@
+"""``multimorph design`` through the command line (the stand-in cell model injected)."""
+
+from __future__ import annotations
+
+import json
+import tomllib
+from pathlib import Path
+
+import pytest
+import typer
+from typer.testing import CliRunner
+
+from multimorph.cli import _design
+from multimorph.device import device_from_spec, simulate_device
+from test_design_helpers import STANDIN, standin_cell
+
+EXAMPLES = Path(__file__).parents[1] / "examples"
+
+
+@pytest.fixture()
+def app(monkeypatch) -> typer.Typer:
+    import multimorph.design._optimise as opt
+    import multimorph.design._robust as rob
+    import multimorph.device._simulate as sim
+
+    monkeypatch.setattr(opt, "rom_batch_model", lambda: STANDIN)
+    monkeypatch.setattr(rob, "rom_batch_model", lambda: STANDIN)
+    monkeypatch.setattr(sim, "default_cell_model", standin_cell)
+    a = typer.Typer(pretty_exceptions_enable=False)
+    _design.register(a)
+    a.command("noop")(lambda: None)  # keep 'design' a sub-command
+    return a
+
+
+def run(app, *args):
+    return CliRunner().invoke(app, ["design", *map(str, args)])
+
+
+def test_design_writes_device_report_and_plots(app, tmp_path):
+    out = tmp_path / "g"
+    r = run(app, EXAMPLES / "target_gripper.toml", "--out", out, "--budget", 900,
+            "--population", 16, "--seed", 3, "--robustness", 24, "--json")
+    assert r.exit_code == 0, r.output
+    data = json.loads(r.stdout)
+    assert data["feasible"] is True and data["explanation"] == []
+    assert data["robustness"]["n_samples"] == 24 and 0 <= data["robustness"]["p_order"] <= 1
+    for f in ("device.toml", "report.md", "report.json", "sequence.png", "convergence.png",
+              "robustness.png"):
+        assert (out / f).is_file(), f
+    dev = device_from_spec(tomllib.loads((out / "device.toml").read_text()))
+    res = simulate_device(dev, cell_model=standin_cell)
+    assert res.sequence.order == ["fingers", "twister"]
+    assert "Robustness (Monte Carlo)" in (out / "report.md").read_text()
+    # same seed, same report (timings aside)
+    r2 = run(app, EXAMPLES / "target_gripper.toml", "--out", tmp_path / "g2", "--budget", 900,
+             "--population", 16, "--seed", 3, "--robustness", 24, "--json")
+    d2 = json.loads(r2.stdout)
+    assert d2["designs"] == data["designs"] and d2["robustness"] == data["robustness"]
+
+
+def test_infeasible_exits_3_with_explanation(app, tmp_path):
+    spec = (EXAMPLES / "target_gripper.toml").read_text().replace(
+        'max_pressure = "60 kPa"', 'max_pressure = "40 kPa"')
+    target = tmp_path / "t.toml"
+    target.write_text(spec)
+    out = tmp_path / "o"
+    r = run(app, target, "--out", out, "--json")
+    assert r.exit_code == 3, r.output
+    data = json.loads(r.stdout)
+    assert data["feasible"] is False
+    assert any("max_pressure binds" in e for e in data["explanation"])
+    assert "INFEASIBLE" in (out / "report.md").read_text()
+    assert not (out / "device.toml").exists()
+
+
+def test_spec_error_exits_2_nothing_written(app, tmp_path):
+    target = tmp_path / "bad.toml"
+    target.write_text('[[stage]]\nkind = "curl"\n')
+    out = tmp_path / "o"
+    r = run(app, target, "--out", out, "--json")
+    assert r.exit_code == 2
+    assert "stage[0] (stage1).kind" in json.loads(r.stdout)["error"]
+    assert not out.exists()
+
+
+def test_verify_fe_missing_is_named(app, tmp_path, monkeypatch):
+    import multimorph.design._verify as ver
+
+    monkeypatch.setattr(ver, "fe_available",
+                        lambda: (False, "multimorph.fe lacks simulate_cell"))
+    r = run(app, EXAMPLES / "target_gripper.toml", "--out", tmp_path / "o", "--verify-fe",
+            "--json")
+    assert r.exit_code == 2
+    assert "--verify-fe: multimorph.fe lacks simulate_cell" in json.loads(r.stdout)["error"]
