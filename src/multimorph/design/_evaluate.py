@@ -173,11 +173,14 @@ def evaluate_one(target: TargetSpec, cand: Candidate, resps: Sequence[Any],
     # sequence constraints between consecutive stages
     for a, b in itertools.pairwise(stages):
         key = f"{a.name}->{b.name}"
-        if a.start is not None and b.start is not None:
-            viol[f"{key}.order"] = (a.start - b.start) / b.start + 0.01
-        if a.end is not None and b.start is not None:
+        if b.start is None:
+            continue
+        den = max(b.start, 1e-3 * pmax)
+        if a.start is not None:
+            viol[f"{key}.order"] = (a.start - b.start) / den + 0.01
+        if a.end is not None:
             floor = con.separation_floor(b.start)
-            viol[f"{key}.separation"] = (floor - (b.start - a.end)) / b.start
+            viol[f"{key}.separation"] = (floor - (b.start - a.end)) / den
     device = None
     try:
         device = build_device(target, cand, n_cells)
