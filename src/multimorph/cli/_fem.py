@@ -32,11 +32,17 @@ def fem(
                    ] = True,
     out: Annotated[Path | None, typer.Option(
         "--out", "-o", help="Output folder (default multimorph-out/fem-<spec name>).")] = None,
+    compare: Annotated[bool, typer.Option(
+        "--compare", help="Also run the reduced model and report Pc, Ph, κ(P) side by side.")
+                       ] = False,
     as_json: Annotated[bool, typer.Option("--json", help="Print the JSON summary.")] = False,
 ) -> None:
     """Inflate a cell with 3D FE: path, Pc/Ph, curves, VTU series, STEP/STL.
 
     Example: multimorph fem examples/fe_cell.toml --mesh medium --pmax "60 kPa" --out out/fe
+
+    With --compare the reduced model runs on the same spec and comparison.json holds Pc, Ph
+    and κ(P) of both with relative differences (rom − fe)/fe.
     """
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -69,8 +75,20 @@ def fem(
 
             result = simulate_cell(geometry, settings, progress=progress)
         info = summary(result)
+        comparison = None
+        if compare:
+            from multimorph.fe._compare import compare_responses
+            from multimorph.rom import simulate_cell as rom_simulate
+
+            comparison = compare_responses(rom_simulate(geometry, p_end), result.response)
+            info["comparison"] = comparison.to_dict()
         with atomic_output_dir(folder) as tmp:
             info["files"] = write_fe_outputs(result, tmp, vtu=vtu)
+            if comparison is not None:
+                from multimorph.io import write_json
+
+                write_json(tmp / "comparison.json", comparison.to_dict())
+                info["files"].append("comparison.json")
         info["out"] = str(folder)
         if as_json:
             emit_json(info)
@@ -91,6 +109,14 @@ def fem(
                       f"{fin['curvature_1_per_m'] * geometry.length:.3f}, bend "
                       f"{fin['bend_angle_deg']:.1f}°, V/V0 = {fin['volume_ratio']:.2f}, "
                       f"peak stretch {fin['peak_stretch']:.2f}")
+        if comparison is not None:
+            def rel(v: float | None) -> str:
+                return "—" if v is None else f"{100 * v:+.1f} %"
+
+            console.print(f"ROM vs FE: Pc {kpa(comparison.pc_rom)} vs {kpa(comparison.pc_fe)}"
+                          f" ({rel(comparison.pc_rel)}), Ph {kpa(comparison.ph_rom)} vs "
+                          f"{kpa(comparison.ph_fe)} ({rel(comparison.ph_rel)}), max |Δκ|/κ "
+                          f"{rel(comparison.kappa_rel_max)}")
         console.print(f"files in {folder}/")
 
 

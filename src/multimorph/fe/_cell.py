@@ -17,7 +17,6 @@ import numpy as np
 
 from multimorph.errors import MultimorphError, SpecError
 from multimorph.fe._deps import require
-from multimorph.fe._derive import characteristic_pressures, observed_curves
 from multimorph.fe._linsolve import make_solver
 from multimorph.fe._measure import (
     bend_and_twist,
@@ -30,7 +29,7 @@ from multimorph.fe._mesh import BOTTOM, WALL, CellMesh, MeshDensity, cell_mesh
 from multimorph.fe._problem import PressureProblem
 from multimorph.fe._solve import PathPoint, PathRun, continuation, pressure_control
 from multimorph.geometry import CellGeometry
-from multimorph.response import EquilibriumPath, Response
+from multimorph.response import EquilibriumPath, Response, build_response
 
 __all__ = ["FEResult", "FESettings", "build_cell_problem", "simulate_cell"]
 
@@ -274,8 +273,6 @@ def simulate_cell(geometry: CellGeometry, settings: FESettings | None = None, *,
     if len(rec.rows) < 2:
         raise MultimorphError(f"FE analysis found no equilibrium beyond P = 0: {run.message}")
     path = rec.path()
-    loading, unloading = observed_curves(path)
-    char = characteristic_pressures(path, loading, geometry.material.break_stretch)
     stats = {
         "backend": "fe", "ndof": int(mesh.ndof), "nfree": int(problem.nfree),
         "ncells": int(mesh.ncells), "points": len(rec.rows) - 1, "attempts": run.attempts,
@@ -286,7 +283,7 @@ def simulate_cell(geometry: CellGeometry, settings: FESettings | None = None, *,
         "settings": {k: (v if not isinstance(v, MeshDensity) else asdict(v))
                      for k, v in asdict(s).items()},
     }
-    resp = Response(path=path, loading=loading, unloading=unloading, characteristic=char,
-                    length=geometry.length, shear_modulus=mu, backend="fe", meta=stats)
+    resp = build_response(path, length=geometry.length, shear_modulus=mu, backend="fe",
+                          break_stretch=geometry.material.break_stretch, meta=stats)
     return FEResult(response=resp, mesh=mesh, displacements=np.array(rec.u),
                     stretch=np.array(rec.cell_stretch), stats=stats)

@@ -92,6 +92,10 @@ def newton(problem: PressureProblem, x: np.ndarray, p: float, solver: LinearSolv
                 break
             if it >= 2 and nr > 1e4 * max(norms[0], scale):
                 return x, NewtonInfo(False, it, norms, "diverging")
+            if it >= 4 and nr > 1e-4 * max(norms):
+                # converging iterations are quadratic by now (typically 1e-3, 2e-1, 3e-3,
+                # 3e-7, ...): give up early and let the step control cut back
+                return x, NewtonInfo(False, it, norms, "not converging")
             try:
                 K = problem.tangent(x, p)
                 dx = solver.solve(K, -r)
