@@ -187,8 +187,9 @@ class _Recorder:
             self.stop_reason = f"peak stretch exceeded {self.max_stretch:g}"
             return True
         if self.stop_after_limit:
-            top = max(row["pressure"] for row in self.rows)
-            if self.rows[-1]["pressure"] < 0.995 * top:
+            pres = [row["pressure"] for row in self.rows]
+            top = int(np.argmax(pres))
+            if pres[-1] < 0.995 * pres[top] and len(pres) - top >= 3:
                 self.stop_reason = "passed the limit point"
                 return True
         if pt.method == "arc-length" and pt.pressure * self.mu >= self.p_max and len(self.rows) > 2:

@@ -1,0 +1,33 @@
+"""ROM-vs-FE comparison of two responses (synthetic paths, no FE run)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from multimorph.fe._compare import compare_responses
+from multimorph.response import EquilibriumPath, build_response
+
+
+def _response(scale: float, backend: str):
+    P = np.linspace(0.0, 1.0, 201)
+    k = scale * (np.tanh((P - 0.5) / 0.08) + np.tanh(0.5 / 0.08))  # steepest at P = 0.5
+    z = np.zeros_like(P)
+    path = EquilibriumPath(pressure=P, curvature=k, twist_rate=z, axial_stretch=z + 1,
+                           volume=1 + P, peak_stretch=1 + P, stable=np.ones_like(P, bool))
+    return build_response(path, length=0.02, shear_modulus=1.0, backend=backend)
+
+
+def test_identical_responses_agree() -> None:
+    c = compare_responses(_response(1.0, "rom"), _response(1.0, "fe"))
+    assert c.pc_rom == pytest.approx(0.5, abs=0.01)
+    assert c.pc_rel == pytest.approx(0.0, abs=1e-12)
+    assert c.kappa_rel_max == pytest.approx(0.0, abs=1e-12)
+
+
+def test_relative_differences_are_rom_minus_fe_over_fe() -> None:
+    c = compare_responses(_response(1.2, "rom"), _response(1.0, "fe"))
+    assert c.pc_rel == pytest.approx(0.0, abs=1e-9)  # same Pc, different amplitude
+    assert c.kappa_rel_max == pytest.approx(0.2, rel=1e-6)
+    d = c.to_dict()
+    assert set(d) >= {"critical_pressure", "hardening_pressure", "kappa"}
