@@ -29,7 +29,7 @@ from multimorph.rom._continuation import (
     TracerSettings,
     make_tracer,
 )
-from multimorph.rom._model import DEFAULT_SETTINGS, cell_theta
+from multimorph.rom._model import DEFAULT_SETTINGS, cell_theta, free_settings
 
 __all__ = ["CellBatch", "ResponseBatch", "simulate_cells", "solve_batch"]
 
@@ -195,7 +195,8 @@ def _measures(wall_law: str, bottom_law: str, options: RomOptions) -> Any:
 def _batched(wall_law: str, bottom_law: str, options: RomOptions,
              settings: TracerSettings) -> Any:
     ck = cell_kernel(wall_law, bottom_law, options)
-    kernel = make_tracer(ck.energy, ck.n_free, settings, ck.admissible)
+    kernel = make_tracer(ck.energy, ck.n_free, free_settings(settings, options),
+                         ck.admissible)
     return jax.jit(jax.vmap(kernel, in_axes=(None, 0, 0))), ck.n_free
 
 

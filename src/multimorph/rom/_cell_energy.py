@@ -32,7 +32,7 @@ import numpy as np
 from multimorph.errors import SpecError
 from multimorph.materials._math import JAX_MATH
 from multimorph.materials._registry import Law, get_law
-from multimorph.rom._kernels import c3, gauss, sinc
+from multimorph.rom._kernels import c3, dsinc, gauss, sinc
 
 __all__ = ["COORDINATES", "GEOMETRY_KEYS", "CellKernel", "RomOptions", "cell_kernel"]
 
@@ -111,6 +111,19 @@ def _arc(phi: Any, s: Any) -> tuple[Any, Any]:
     return X, Z
 
 
+def _arc_dphi(phi: Any, s: Any) -> tuple[Any, Any]:
+    """∂X/∂phi and ∂Z/∂phi of :func:`_arc` (analytic, safe at phi = 0)."""
+    s0, d0 = sinc(phi), dsinc(phi)
+    ss, ds_ = sinc(phi * s), dsinc(phi * s)
+    Xp = s * (s * ds_ * s0 - ss * d0) / (s0 * s0)
+    u1, u2 = 0.5 * (1.0 + s), 0.5 * (1.0 - s)
+    s1, s2 = sinc(phi * u1), sinc(phi * u2)
+    z_over_phi = 0.5 * (1.0 - s * s) * s1 * s2 / s0
+    Zp = z_over_phi * (1.0 + phi * (u1 * dsinc(phi * u1) / s1 + u2 * dsinc(phi * u2) / s2
+                                    - d0 / s0))
+    return Xp, Zp
+
+
 def _segment_area(phi: Any) -> Any:
     """Area of the circular segment over a unit half-chord: (2phi − sin 2phi)/(2 sin² phi)."""
     return 4.0 * phi * c3(2.0 * phi) / sinc(phi) ** 2
@@ -120,11 +133,15 @@ _S_VOL, _W_VOL = gauss(8, 0.0, 1.0)
 
 
 def _segment_moment(phi: Any) -> Any:
-    """First moment of the segment about its chord (unit half-chord): ∫ Z²/2 dX (Gauss)."""
+    """First moment of the segment about its chord (unit half-chord): ∫ Z²/2 dX (Gauss).
+
+    ``phi`` may be an array; the quadrature runs over a new last axis.
+    """
+    phi = jnp.asarray(phi)[..., None]
     s = jnp.asarray(_S_VOL)
     X_s = jnp.cos(phi * s) / sinc(phi)
     _, Z = _arc(phi, s)
-    return 2.0 * jnp.sum(jnp.asarray(_W_VOL) * 0.5 * Z * Z * X_s)
+    return jnp.sum(jnp.asarray(_W_VOL) * Z * Z * X_s, axis=-1)
 
 
 def _taper_nodes(opts: RomOptions, dc: Any, span: Any) -> tuple[Any, Any, Any]:
@@ -209,36 +226,35 @@ def cell_kernel(wall_law: str, bottom_law: str, options: RomOptions = RomOptions
         g["dc"] = 1.0 - 2.0 * g["df"]
         return g
 
-    def arc_terms(phi0: Any, s: np.ndarray) -> tuple[Any, Any, Any, Any]:
-        X, Z = _arc(phi0, s)
-        sp = sinc(phi0)
-        Xs = jnp.cos(phi0 * s) / sp
-        Zs = -phi0 * s * sinc(phi0 * s) / sp
-        return X, Z, Xs, Zs
-
     def membrane(phi0: Any, a: Any, thick: Any, s: np.ndarray, w_s: np.ndarray, dc: Any,
                  lam_y: Callable[[Any], Any], height: Callable[[Any, Any], Any],
                  normal_z: Callable[[Any, Any], Any]) -> tuple[Any, Any, Any, Any]:
         """Invariants, weights and largest stretch at (y, s, t) nodes of a bulging wall.
 
-        Section shape at y: the mid-chamber circular arc (half-angle phi0, half-chord a)
-        scaled normal to its chord by g(y) (g = 1 on the plateau, → 0 at the end walls).
+        Section at y: a circular arc over the chord (half-chord a) of half-angle
+        phi(y) = phi0 g(y) (g = 1 on the plateau, → 0 at the end walls).
         """
         wy, gy, gpy = _taper_nodes(o, dc, 2.0 * a)
-        X, Z, Xs, Zs = arc_terms(phi0, s)
-        g = gy[:, None, None]
-        gp = gpy[:, None, None]
-        X, Z, Xs, Zs = (v[None, :, None] for v in (X, Z, Xs, Zs))
-        lam_s0_sq = Xs * Xs + g * g * Zs * Zs            # inner-face stretch² along the span
-        z_in = height(a * X, a * g * Z)
-        lam3m = 1.0 / (jnp.sqrt(lam_s0_sq) * lam_y(z_in))
-        # bending strain of the fibre at t, measured from the mid-surface (curvature g/ρ)
-        curv = g * phi0 * sinc(phi0) / a
+        phi = phi0 * gy[:, None]                             # (ny, 1)
+        dphi = phi0 * gpy[:, None]                           # dphi/dy
+        sv = np.asarray(s)[None, :]                          # (1, ns)
+        X, Z = _arc(phi, sv)
+        Xp, Zp = _arc_dphi(phi, sv)
+        sp = sinc(phi)
+        Xs = jnp.cos(phi * sv) / sp                          # dX/ds (unit half-chord)
+        Zs = -phi * sv * sinc(phi * sv) / sp
+        lam_s0 = 1.0 / sp                                    # arc stretch of the inner face
+        X, Z, Xp, Zp, Xs, Zs = (v[:, :, None] for v in (X, Z, Xp, Zp, Xs, Zs))
+        phi3, dphi3, lam_s0 = phi[:, :, None], dphi[:, :, None], lam_s0[:, :, None]
+        z_in = height(a * X, a * Z)
+        lam3m = 1.0 / (lam_s0 * lam_y(z_in))
+        # bending strain of the fibre at t, measured from the mid-surface (curvature 1/ρ)
+        curv = phi3 * sinc(phi3) / a
         fac = 1.0 + (thick * tn - 0.5 * thick) * lam3m * curv if o.wall_bending else 1.0
-        G11 = lam_s0_sq * fac * fac
-        ly = lam_y(z_in + thick * tn * lam3m * normal_z(g, phi0 * s[None, :, None]))
-        G22 = ly * ly + (a * gp * Z) ** 2
-        G12 = g * Zs * a * gp * Z
+        G11 = (lam_s0 * fac) ** 2
+        ly = lam_y(z_in + thick * tn * lam3m * normal_z(None, phi3 * sv[:, :, None]))
+        G22 = ly * ly + (a * dphi3) ** 2 * (Xp * Xp + Zp * Zp)
+        G12 = a * dphi3 * (Xs * Xp + Zs * Zp)
         tr = G11 + G22
         det = G11 * G22 - G12 * G12
         I1 = tr + 1.0 / det
@@ -295,11 +311,12 @@ def cell_kernel(wall_law: str, bottom_law: str, options: RomOptions = RomOptions
         a_t, a_s = 0.5 * wc, 0.5 * hc
         dv = dc * wc * hc * (e + k * (hb + 0.5 * hc - zb))
         wy, gy, _ = _taper_nodes(o, dc, 2.0 * a_t)
-        A = a_t**2 * _segment_area(phi_t) * jnp.sum(wy * gy)
-        M = a_t**3 * _segment_moment(phi_t) * jnp.sum(wy * gy * gy)
+        phi = phi_t * gy
+        A = a_t**2 * jnp.sum(wy * _segment_area(phi))
+        M = a_t**3 * jnp.sum(wy * _segment_moment(phi))
         dv += A * (1.0 + e + k * (hb + hc - zb)) + k * M
         wy, gy, _ = _taper_nodes(o, dc, 2.0 * a_s)
-        As = a_s**2 * _segment_area(phi_s) * jnp.sum(wy * gy)
+        As = a_s**2 * jnp.sum(wy * _segment_area(phi_s * gy))
         dv += 2.0 * As * (1.0 + e + k * (hb + 0.5 * hc - zb))
         return dv
 

@@ -78,7 +78,8 @@ class TracerSettings:
     n_newton : int
         Newton iterations per corrector (fixed, for vectorisation).
     tol : float
-        Converged when max |R| (scaled) is below ``tol``.
+        Converged when max |R| is below ``tol`` times max |∂R/∂p| (the load vector of one
+        ``p_scale`` of pressure) and the arc-length equation holds to ``tol``.
     max_turn : float
         Largest angle (rad) between successive unit tangents of an accepted step.
     q_scale, p_scale : tuple of float, float
@@ -225,7 +226,9 @@ def make_tracer(energy: EnergyFn, n: int, settings: TracerSettings,
             def body(st: Any) -> Any:
                 v, g, H, it, conv = st
                 g, H = derivs(v)
-                r = jnp.maximum(jnp.max(jnp.abs(g[:n])), jnp.abs(jnp.dot(c, v) - target))
+                # residual relative to the load vector of one p_scale of pressure
+                load = jnp.maximum(jnp.max(jnp.abs(H[:n, n])), 1e-300)
+                r = jnp.maximum(jnp.max(jnp.abs(g[:n])) / load, jnp.abs(jnp.dot(c, v) - target))
                 conv = r < s.tol
                 F = jnp.concatenate([g[:n], jnp.array([jnp.dot(c, v) - target])])
                 dv = solve_small(bordered(H, c), -F)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache
 from typing import Any
 
@@ -51,11 +51,19 @@ def cell_theta(cell: CellGeometry) -> dict[str, Any]:
             "mb": material_theta(cell.bottom_material, mu)}
 
 
+def free_settings(settings: TracerSettings, options: RomOptions) -> TracerSettings:
+    """``settings`` with ``q_scale`` restricted to the free coordinates of ``options``."""
+    if len(settings.q_scale) == len(COORDINATES):
+        return replace(settings, q_scale=tuple(settings.q_scale[i] for i in options.free))
+    return settings
+
+
 @lru_cache(maxsize=16)
 def _kernels(wall_law: str, bottom_law: str, options: RomOptions,
              settings: TracerSettings) -> tuple[Any, Any, Any]:
     ck = cell_kernel(wall_law, bottom_law, options)
-    tracer = jax.jit(make_tracer(ck.energy, ck.n_free, settings, ck.admissible))
+    tracer = jax.jit(make_tracer(ck.energy, ck.n_free, free_settings(settings, options),
+                                 ck.admissible))
     measures = jax.jit(jax.vmap(ck.measures, in_axes=(0, 0, None)))
     return ck, tracer, measures
 
