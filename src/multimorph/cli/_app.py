@@ -32,6 +32,7 @@ def _register() -> None:
     _simulate.register(app)
     from multimorph.cli import _fem; _fem.register(app)  # noqa: E702, I001
     from multimorph.cli import _design; _design.register(app)  # noqa: E702, I001
+    from multimorph.cli import _cell; _cell.register(app)  # noqa: E702, I001
 
 
 def main() -> None:

@@ -1,0 +1,132 @@
+"""``multimorph cell``: the reduced model of one unit cell (κ(P), Pc, Ph, plots)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from multimorph.cli._common import console, emit_json, handle_errors
+
+__all__ = ["cell", "cell_summary", "register"]
+
+
+def cell_summary(response: Any) -> dict[str, Any]:
+    """The JSON document of ``multimorph cell`` (SI units; null where not reached)."""
+    import numpy as np
+
+    path = response.path
+    ch = response.characteristic
+    d = response.length
+    return {
+        "pressure": path.pressure.tolist(),
+        "curvature": path.curvature.tolist(),
+        "bend_angle": (path.curvature * d).tolist(),
+        "stable": path.stable.astype(bool).tolist(),
+        "critical_pressure": ch.critical,
+        "hardening_pressure": ch.hardening,
+        "failure_pressure": ch.failure,
+        "critical_kind": ch.critical_kind,
+        "curvature_at": dict(ch.curvature_at),
+        "shear_modulus": response.shear_modulus,
+        "length": d,
+        "volume": path.volume.tolist(),
+        "peak_stretch": path.peak_stretch.tolist(),
+        "loading": {"pressure": response.loading.pressure.tolist(),
+                    "curvature": response.loading.curvature.tolist()},
+        "unloading": {"pressure": response.unloading.pressure.tolist(),
+                      "curvature": response.unloading.curvature.tolist()},
+        "max_bend_angle": float(np.max(path.curvature * d)),
+        "backend": response.backend,
+    }
+
+
+def _plot(response: Any, file: Path, title: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    p, r = response.path, response
+    ch = r.characteristic
+    mu, d = r.shear_modulus, r.length
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4), constrained_layout=True)
+    a1.plot(p.pressure / 1e3, p.curvature, "-", color="0.6", lw=1, label="equilibrium path")
+    a1.plot(r.loading.pressure / 1e3, r.loading.curvature, "C0-", lw=2, label="loading")
+    a2.plot(p.pressure / mu, p.curvature * d, "C0-", lw=2)
+    for key, value, color in (("Pc", ch.critical, "C3"), ("Ph", ch.hardening, "C2")):
+        if value is None:
+            continue
+        kap = ch.curvature_at["critical" if key == "Pc" else "hardening"]
+        a1.axvline(value / 1e3, color=color, ls="--", lw=1)
+        a1.plot([value / 1e3], [kap], "o", color=color, label=f"{key} = {value / 1e3:.3g} kPa")
+        a2.axvline(value / mu, color=color, ls="--", lw=1)
+        a2.plot([value / mu], [kap * d], "o", color=color,
+                label=f"{key}/μ = {value / mu:.3g}")
+    a1.set(xlabel="pressure P (kPa)", ylabel="curvature κ (1/m)", title=title)
+    a2.set(xlabel="P/μ (-)", ylabel="κd (-)", title="dimensionless")
+    a1.legend(fontsize=8)
+    a2.legend(fontsize=8)
+    fig.savefig(file, dpi=120)
+    plt.close(fig)
+
+
+def cell(
+    spec: Annotated[Path, typer.Argument(help="Cell spec (TOML) with a [cell] table.")],
+    pmax: Annotated[str | None, typer.Option(
+        help="Highest pressure, e.g. '60 kPa' (default: the wall shear modulus).")] = None,
+    out: Annotated[Path | None, typer.Option(
+        "--out", "-o", help="Output folder (default multimorph-out/cell-<spec name>).")
+                   ] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print the JSON summary.")] = False,
+) -> None:
+    """Reduced model of a unit cell: κ(P), Pc, Ph and a plot.
+
+    Example: multimorph cell examples/cell.toml --pmax "300 kPa" --out out/cell
+
+    Writes response.json (the --json document) and curvature.png (κ(P) and κd vs P/μ with
+    Pc and Ph marked) atomically into the output folder.
+    """
+    from multimorph.errors import SpecError
+    from multimorph.geometry import CellGeometry
+    from multimorph.io import atomic_output_dir, load_toml, write_json
+    from multimorph.rom import solve_cell
+    from multimorph.units import to_si
+
+    with handle_errors(as_json):
+        table = load_toml(spec)
+        if "cell" not in table:
+            raise SpecError(f"{spec}: missing [cell] table")
+        geometry = CellGeometry.from_spec(table["cell"])
+        p_max = geometry.mu if pmax is None else to_si(pmax, "Pa", field="--pmax")
+        if not p_max > 0:
+            raise SpecError(f"--pmax: must be a positive pressure, got {pmax!r}")
+        response = solve_cell(geometry, p_max)
+        data = cell_summary(response)
+        folder = out if out is not None else Path("multimorph-out") / f"cell-{spec.stem}"
+        with atomic_output_dir(folder) as tmp:
+            write_json(tmp / "response.json", data)
+            _plot(response, tmp / "curvature.png", spec.stem)
+    if as_json:
+        emit_json(data)
+        return
+    ch = response.characteristic
+    mu = response.shear_modulus
+
+    def kpa(v: float | None) -> str:
+        return "not reached" if v is None else f"{v / 1e3:.4g} kPa (P/μ = {v / mu:.3g})"
+
+    console.print(f"[bold]cell[/] {spec} — μ = {mu / 1e3:.4g} kPa, d = "
+                  f"{response.length * 1e3:.4g} mm, {len(response.path)} path points up to "
+                  f"{p_max / 1e3:.4g} kPa")
+    console.print(f"  critical pressure Pc ({ch.critical_kind}): {kpa(ch.critical)}")
+    console.print(f"  hardening pressure Ph: {kpa(ch.hardening)}")
+    console.print(f"  failure pressure: {kpa(ch.failure)}")
+    console.print(f"  max curvature {max(data['curvature']):.4g} 1/m, bend angle "
+                  f"{data['max_bend_angle']:.3g} rad per cell")
+    console.print(f"  wrote {folder}/response.json, {folder}/curvature.png")
+
+
+def register(app: typer.Typer) -> None:
+    app.command("cell")(cell)

@@ -1,0 +1,113 @@
+"""Backend-independent derivations on synthetic paths: observed curves and Pc/Ph/failure."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from multimorph.response import (
+    EquilibriumPath,
+    build_response,
+    characteristic_pressures,
+    observed_curves,
+)
+
+
+def _path(P, k, stable=None, peak=None):
+    P = np.asarray(P, float)
+    n = P.shape[0]
+    return EquilibriumPath(
+        pressure=P, curvature=np.asarray(k, float), twist_rate=np.zeros(n),
+        axial_stretch=np.ones(n), volume=np.asarray(k, float) + 1.0,
+        peak_stretch=np.ones(n) if peak is None else np.asarray(peak, float),
+        stable=np.ones(n, bool) if stable is None else np.asarray(stable, bool))
+
+
+def _n_shaped():
+    """P(κ) = κ³ − 3κ² + 2.4κ: rises to a max at κ1, falls to a min at κ2, rises again."""
+    k = np.linspace(0.0, 3.0, 301)
+    P = k**3 - 3 * k**2 + 2.4 * k
+    dP = 3 * k**2 - 6 * k + 2.4
+    return _path(P, k, stable=dP > 0), k, P
+
+
+def test_loading_snaps_at_the_limit_point_to_the_stiff_branch():
+    path, _k, P = _n_shaped()
+    loading, _unloading = observed_curves(path)
+    k1 = 1 - np.sqrt(1 - 2.4 / 3)          # dP/dκ = 0
+    p_max = k1**3 - 3 * k1**2 + 2.4 * k1
+    snap = np.flatnonzero(loading.extra["snap"] > 0)
+    assert snap.size == 1
+    j = int(snap[0])
+    # jump at constant pressure (the last stable point before it) onto the rising branch
+    assert loading.pressure[j] == pytest.approx(loading.pressure[j - 1], abs=1e-12)
+    assert loading.pressure[j] == pytest.approx(p_max, abs=1e-3)
+    assert loading.curvature[j] > 1 + np.sqrt(1 - 2.4 / 3)
+    assert np.all(np.diff(loading.pressure) >= -1e-12)
+    assert loading.pressure[-1] == P[-1] and loading.stable.all()
+
+
+def test_unloading_snaps_back_at_the_lower_turning_point_hysteresis():
+    path, _k, _P = _n_shaped()
+    loading, unloading = observed_curves(path)
+    k2 = 1 + np.sqrt(1 - 2.4 / 3)
+    p_min = k2**3 - 3 * k2**2 + 2.4 * k2
+    assert np.all(np.diff(unloading.pressure) <= 1e-12)
+    snap = np.flatnonzero(unloading.extra["snap"] > 0)
+    assert snap.size == 1
+    j = int(snap[0])
+    assert unloading.pressure[j] == pytest.approx(p_min, abs=1e-3)
+    assert unloading.curvature[j] < 1 - np.sqrt(1 - 2.4 / 3)
+    # hysteresis: at a pressure inside the loop, loading is on the soft branch, unloading not
+    p_mid = 0.5 * (p_min + loading.pressure[int(np.flatnonzero(loading.extra["snap"])[0])])
+    k_load = np.interp(p_mid, loading.pressure, loading.curvature)
+    k_unload = np.interp(p_mid, unloading.pressure[::-1], unloading.curvature[::-1])
+    assert k_unload > k_load + 0.5
+
+
+def test_runaway_without_stable_branch_ends_loading():
+    k = np.linspace(0, 3, 100)
+    P = k * np.exp(-k)                      # max at κ = 1, falls forever
+    path = _path(P, k, stable=k <= 1.0)
+    loading, unloading = observed_curves(path)
+    assert loading.curvature[-1] == pytest.approx(1.0, abs=0.04)
+    assert unloading.pressure[0] == loading.pressure[-1]
+
+
+def test_critical_is_the_limit_point_when_there_is_one():
+    path, _k, _P = _n_shaped()
+    c = characteristic_pressures(path)
+    k1 = 1 - np.sqrt(1 - 2.4 / 3)
+    assert c.critical_kind == "limit_point"
+    assert c.critical == pytest.approx(k1**3 - 3 * k1**2 + 2.4 * k1, rel=1e-5)
+    assert c.curvature_at["critical"] == pytest.approx(k1, abs=0.01)
+
+
+@pytest.mark.parametrize(("pc", "width"), [(40e3, 8e3), (100e3, 5e3)])
+def test_max_slope_and_knee_on_a_sigmoid(pc, width):
+    # κ = tanh((P − pc)/w) + 1: steepest at pc, most negative κ'' at pc + atanh(1/√3) w
+    P = np.linspace(0.0, pc + 6 * width, 400)
+    k = np.tanh((P - pc) / width) + 1.0 + 1e-3 * P / pc
+    c = characteristic_pressures(_path(P, k))
+    assert c.critical_kind == "max_slope"
+    assert c.critical == pytest.approx(pc, abs=0.01 * width)
+    assert c.hardening == pytest.approx(pc + np.arctanh(1 / np.sqrt(3)) * width,
+                                        abs=0.02 * width)
+    assert c.failure is None
+    d = c.to_dict()
+    assert {"critical_pressure", "hardening_pressure", "failure_pressure"} <= set(d)
+
+
+def test_no_hardening_when_the_curve_keeps_steepening():
+    P = np.linspace(0, 1, 50)
+    c = characteristic_pressures(_path(P, P**3))
+    assert c.critical == pytest.approx(1.0, abs=0.03) and c.hardening is None
+
+
+def test_failure_pressure_where_peak_stretch_reaches_break():
+    P = np.linspace(0, 100e3, 101)
+    r = build_response(_path(P, P / 1e3, peak=1 + P / 50e3), length=0.02, shear_modulus=2e5,
+                       backend="test", break_stretch=2.5)
+    assert r.characteristic.failure == pytest.approx(75e3)
+    assert r.characteristic.curvature_at["failure"] == pytest.approx(75.0)
+    assert len(r.loading) == len(P) and len(r.unloading) == len(P)
