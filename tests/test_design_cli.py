@@ -19,13 +19,9 @@ EXAMPLES = Path(__file__).parents[1] / "examples"
 
 @pytest.fixture()
 def app(monkeypatch) -> typer.Typer:
-    import multimorph.design._optimise as opt
-    import multimorph.design._robust as rob
-    import multimorph.device._simulate as sim
+    import multimorph.design as des
 
-    monkeypatch.setattr(opt, "rom_batch_model", lambda: STANDIN)
-    monkeypatch.setattr(rob, "rom_batch_model", lambda: STANDIN)
-    monkeypatch.setattr(sim, "default_cell_model", standin_cell)
+    monkeypatch.setattr(des, "rom_batch_model", lambda: STANDIN)
     a = typer.Typer(pretty_exceptions_enable=False)
     _design.register(a)
     a.command("noop")(lambda: None)  # keep 'design' a sub-command

@@ -46,7 +46,14 @@ def design_command(
 
     Example: multimorph design examples/target_gripper.toml --seed 1 --out out/gripper
     """
-    from multimorph.design import DesignSettings, design, target_from_spec
+    from multimorph.design import (
+        CountingModel,
+        DesignSettings,
+        design,
+        rom_batch_model,
+        single_cell,
+        target_from_spec,
+    )
     from multimorph.design import robustness as mc
     from multimorph.design._report import (
         convergence_figure,
@@ -85,11 +92,13 @@ def design_command(
             def progress(done: int, total: int, phase: str) -> None:
                 bar.update(task, completed=min(done, total), description=f"search: {phase}")
 
-            result = design(spec, settings=settings, progress=progress)
+            # one model, one batch shape for search, Monte Carlo and the final simulation
+            model = CountingModel(rom_batch_model(), pad_to=population * len(spec.stages))
+            result = design(spec, model=model, settings=settings, progress=progress)
             rob = None
             if result.best is not None and result.feasible and robustness > 0:
                 bar.update(task, description="robustness (Monte Carlo)")
-                rob = mc(spec, result.best, n_samples=robustness, seed=seed,
+                rob = mc(spec, result.best, n_samples=robustness, seed=seed, model=model,
                          wall_tolerance=tol, default_cv=default_cv)
         sequence: dict[str, Any] | None = None
         dev_result = None
@@ -97,7 +106,7 @@ def design_command(
         if best is not None and best.device is not None:
             from multimorph.device import simulate_device
 
-            dev_result = simulate_device(best.device)
+            dev_result = simulate_device(best.device, cell_model=single_cell(model))
             sequence = dev_result.sequence.to_dict()
         verification = None
         if verify_fe and best is not None and result.feasible:

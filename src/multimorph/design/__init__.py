@@ -12,6 +12,7 @@ from multimorph.design._models import (
     CountingModel,
     batched,
     rom_batch_model,
+    single_cell,
 )
 from multimorph.design._optimise import DesignResult, DesignSettings, design, evaluate_population
 from multimorph.design._robust import RobustnessReport, material_stderr, robustness
@@ -59,5 +60,6 @@ __all__ = [
     "material_stderr",
     "robustness",
     "rom_batch_model",
+    "single_cell",
     "target_from_spec",
 ]

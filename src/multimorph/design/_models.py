@@ -17,7 +17,8 @@ from multimorph.errors import MultimorphError
 from multimorph.geometry import CellGeometry
 from multimorph.response import Response
 
-__all__ = ["ROM_BATCH_NAMES", "BatchModel", "CountingModel", "batched", "rom_batch_model"]
+__all__ = ["ROM_BATCH_NAMES", "BatchModel", "CountingModel", "batched", "rom_batch_model",
+           "single_cell"]
 
 BatchModel = Callable[[Sequence[CellGeometry], float], list[Any]]
 CellModel = Callable[[CellGeometry, float], Response]
@@ -42,6 +43,83 @@ def batched(cell_model: CellModel) -> BatchModel:
     return fn
 
 
+def _rom_fast(rom: Any) -> BatchModel | None:
+    """Batched ROM with the path measures of the whole batch in one padded call.
+
+    ``rom.solve_batch`` traces all designs at once; the per-point measures (volume, peak
+    stretch) are then evaluated for the whole padded (designs × points) array in one jitted,
+    doubly vmapped call — compiled once per batch shape, instead of once per distinct path
+    length as when building each :class:`Response` separately. ``None`` when the ROM lacks
+    the pieces (then its list-in/list-out entry point is used).
+    """
+    need = ("solve_batch", "cell_kernel", "RomOptions", "CellBatch")
+    if not all(hasattr(rom, n) for n in need):
+        return None
+    import jax
+    import jax.numpy as jnp
+    import numpy as np
+
+    from multimorph.response import EquilibriumPath, build_response
+
+    compiled: dict[tuple[str, str], Any] = {}
+
+    def measures_fn(wall: str, bottom: str, options: Any) -> Any:
+        key = (wall, bottom)
+        if key not in compiled:
+            ck = rom.cell_kernel(wall, bottom, options)
+            inner = jax.vmap(ck.measures, in_axes=(0, 0, None))
+            compiled[key] = jax.jit(jax.vmap(inner, in_axes=(0, 0, 0)))
+        return compiled[key]
+
+    def call(cells: Sequence[CellGeometry], p_max: float) -> list[Any]:
+        groups: dict[tuple[str, str], list[int]] = {}
+        for i, c in enumerate(cells):
+            assert c.bottom_material is not None
+            groups.setdefault((c.material.model, c.bottom_material.model), []).append(i)
+        out: list[Any] = [MultimorphError("not evaluated")] * len(cells)
+        for (wall, bottom), idx in groups.items():
+            try:
+                batch = rom.CellBatch.from_cells([cells[i] for i in idx])
+                rb = rom.solve_batch(batch, p_max)
+                opts = rb.options
+                free = list(opts.free)
+                theta = batch.theta()
+                p = rb.pressure / batch.mu[:, None]
+                meas = measures_fn(wall, bottom, opts)(jnp.asarray(rb.q[:, :, free]),
+                                                       jnp.asarray(p), theta)
+                meas = {k: np.asarray(v) for k, v in meas.items()}
+            except Exception as exc:  # a whole group cannot be set up
+                for i in idx:
+                    out[i] = exc
+                continue
+            r = batch.ratios
+            for j, i in enumerate(idx):
+                if int(rb.status[j]) != 0:
+                    out[i] = MultimorphError(f"cell ROM: {rb.message(j)}")
+                    continue
+                m = int(rb.count[j])
+                d = float(batch.length[j])
+                v0 = ((r["w"][j] - 2 * r["ws"][j]) * (r["h"][j] - r["ht"][j] - r["hb"][j])
+                      * (1 - 2 * r["df"][j]) * d**3)
+                try:
+                    path = EquilibriumPath(
+                        pressure=rb.pressure[j, :m], curvature=rb.curvature[j, :m],
+                        twist_rate=np.zeros(m), axial_stretch=1.0 + rb.q[j, :m, 3],
+                        volume=v0 + meas["volume"][j, :m] * d**3,
+                        peak_stretch=meas["peak_stretch"][j, :m], stable=rb.stable[j, :m],
+                        extra={"q": rb.q[j, :m], "lockup": meas["lockup"][j, :m]})
+                    bs = cells[i].material.break_stretch
+                    out[i] = build_response(path, length=d, shear_modulus=float(batch.mu[j]),
+                                            backend="rom", break_stretch=bs,
+                                            meta={"model": "cell-ritz", "points": m})
+                except MultimorphError as exc:
+                    out[i] = exc
+        return out
+
+    call.batched = True  # type: ignore[attr-defined]
+    return call
+
+
 def rom_batch_model() -> BatchModel:
     """The reduced cell model of :mod:`multimorph.rom` as a batch model.
 
@@ -55,6 +133,9 @@ def rom_batch_model() -> BatchModel:
     except ImportError as exc:  # pragma: no cover - depends on the ROM's state
         raise MultimorphError(f"the reduced cell model multimorph.rom cannot be imported "
                               f"({exc}); the designer needs it (issue 3)") from None
+    fast = _rom_fast(rom)
+    if fast is not None:
+        return fast
     for name in ROM_BATCH_NAMES:
         fn = getattr(rom, name, None)
         if callable(fn):
@@ -79,8 +160,8 @@ class CountingModel:
     ----------
     model : BatchModel
     pad_to : int, optional
-        For a batched (jitted) model, pad every call to a multiple of this many cells so
-        the model compiles once; padding is dropped and not counted.
+        For a batched (jitted) model, call it on chunks of exactly this many cells (the
+        last one padded) so the model compiles once; padding is dropped and not counted.
     """
 
     def __init__(self, model: BatchModel, pad_to: int | None = None) -> None:
@@ -94,11 +175,17 @@ class CountingModel:
         n = len(cells)
         if n == 0:
             return []
-        padded = cells
-        if self.pad_to and n % self.pad_to:
-            padded = cells + [cells[-1]] * (self.pad_to - n % self.pad_to)
         try:
-            out = list(self.model(padded, p_max))[:n]
+            if self.pad_to:
+                # fixed-size chunks: one batch shape, one compilation for every call
+                k = self.pad_to
+                padded = cells + [cells[-1]] * ((-n) % k)
+                out = []
+                for a in range(0, len(padded), k):
+                    out.extend(list(self.model(padded[a:a + k], p_max)))
+                out = out[:n]
+            else:
+                out = list(self.model(cells, p_max))
         except MultimorphError:
             if n == 1:
                 raise
@@ -111,3 +198,15 @@ class CountingModel:
         self.evaluations += n
         self.calls += 1
         return out
+
+
+def single_cell(model: BatchModel) -> CellModel:
+    """A single-design ``cell_model(cell, p_max)`` from a batch model (errors raised)."""
+
+    def fn(cell: CellGeometry, p_max: float) -> Response:
+        r = model([cell], p_max)[0]
+        if isinstance(r, BaseException):
+            raise r
+        return r
+
+    return fn

@@ -55,8 +55,10 @@ class DesignSettings:
         Robust objective: Monte Carlo samples per shortlisted design (0: nominal ranking).
     robust_shortlist : int
         Designs re-ranked by the robust objective.
-    tolerances : dict, optional
+    wall_tolerance, default_cv : float
         Uncertainty model of the robust objective (see :func:`multimorph.design.robustness`).
+    batch_cells : int, optional
+        Cells per batched model call (one compiled shape); default population × stages.
     """
 
     budget: int = 1200
@@ -68,6 +70,7 @@ class DesignSettings:
     robust_shortlist: int = 4
     wall_tolerance: float = 0.1e-3
     default_cv: float = 0.05
+    batch_cells: int | None = None
 
     def __post_init__(self) -> None:
         if self.population < 4:
@@ -305,7 +308,7 @@ def design(target: TargetSpec, *, model: BatchModel | None = None,
         return DesignResult(target, s, False, [], static, {}, 0, 0, [],
                             time.perf_counter() - t0)
     raw = model if model is not None else rom_batch_model()
-    counted = CountingModel(raw, pad_to=s.population * space.n_stages)
+    counted = CountingModel(raw, pad_to=s.batch_cells or s.population * space.n_stages)
     rng = np.random.default_rng(s.seed)
     history: list[float] = []
     archive: dict[bytes, Evaluation] = {}
