@@ -131,6 +131,7 @@ def _strip_pressure(phi, jm, a, H, mu):
     return mu * H / a * (lam - lam**-3) * np.sin(phi) / (1 - (lam**2 + lam**-2 - 2) / jm)
 
 
+@pytest.mark.slow  # compiles the cell kernel
 @pytest.mark.parametrize("jm", [10.0, 30.0])
 def test_rigid_walls_plane_strain_is_the_exact_strip(jm):
     cell = _strip_cell(jm)
@@ -145,6 +146,7 @@ def test_rigid_walls_plane_strain_is_the_exact_strip(jm):
     assert np.all(r.path.curvature == 0.0)
 
 
+@pytest.mark.slow  # compiles the cell kernel
 def test_rigid_walls_long_chamber_within_two_percent_of_strip():
     # the default model (bulge tapering to the end walls, plate bending of the wall) with every
     # wall but the top rigid, on a long thin-walled chamber (dc = 99 wc, H/a = 0.01): along the
