@@ -227,8 +227,14 @@ def solve_batch(cells: CellBatch | Sequence[CellGeometry], p_max: float | np.nda
     pm = np.broadcast_to(np.asarray(p_max, float), (len(batch),)) / batch.mu
     if not np.all(np.isfinite(pm) & (pm > 0)):
         raise SpecError("p_max must be a positive pressure for every design")
-    out = fn(jnp.zeros(nf), batch.theta(), jnp.asarray(pm))
-    out = {k: np.asarray(v) for k, v in out.items()}
+    # pad to a bucket size (power of two up to 256, then multiples of 256) so that batches
+    # of similar size reuse one compiled kernel
+    B = len(batch)
+    Bp = max(4, 1 << (B - 1).bit_length()) if B <= 256 else -(-B // 256) * 256
+    pad = np.concatenate([np.arange(B), np.full(Bp - B, B - 1)]).astype(int)
+    theta = jax.tree_util.tree_map(lambda a: a[pad], batch.theta())
+    out = fn(jnp.zeros(nf), theta, jnp.asarray(pm[pad]))
+    out = {k: np.asarray(v)[:B] for k, v in out.items()}
     u = out["u"]
     q = np.zeros((*u.shape[:2], 4))
     q[:, :, list(opts.free)] = u[:, :, :nf]

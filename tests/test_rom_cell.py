@@ -1,0 +1,189 @@
+"""Properties of the reduced cell model: regimes, Buckingham scaling, trends of Pc, CLI.
+
+All cases share one compiled kernel (Gent walls, Gent bottom, default options and step
+control); its first compilation dominates the run time, so the module is marked slow.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+import multimorph  # noqa: F401  (float64)
+from multimorph.cli._app import _register, app
+from multimorph.geometry import CellGeometry
+from multimorph.materials import Material
+from multimorph.rom import ContinuationError, solve_batch, solve_cell
+
+pytestmark = pytest.mark.slow
+
+MU = 2.45e5
+WALL = Material("gent", {"mu": MU, "jm": 20.0})
+BOTTOM = Material("gent", {"mu": 1.2e6, "jm": 20.0})
+
+
+def ref_cell(**kw) -> CellGeometry:
+    base = dict(length=20e-3, width=10e-3, height=8e-3, top_wall=0.8e-3, bottom_wall=2e-3,
+                side_wall=1.5e-3, end_wall=1.5e-3, material=WALL, bottom_material=BOTTOM)
+    base.update(kw)
+    return CellGeometry(**base)
+
+
+@pytest.fixture(scope="module")
+def reference():
+    return solve_cell(ref_cell(), 1.2 * MU)
+
+
+def test_three_regimes_mild_steep_plateau(reference):
+    r = reference
+    P, k = r.loading.pressure / MU, r.loading.curvature * r.length
+    slope = np.gradient(k, P)
+    pc = r.characteristic.critical / MU
+    ph = r.characteristic.hardening / MU
+    assert r.characteristic.critical_kind == "max_slope"
+    assert 0.2 < pc < ph < 1.2
+    s_c = slope.max()
+    assert slope[P < 0.3 * pc].max() < 0.25 * s_c      # mild rise
+    assert slope[-1] < 0.3 * s_c                        # strain-hardening plateau
+    assert np.all(np.isfinite(r.path.curvature)) and r.path.stable.all()
+    assert np.all(r.path.extra["lockup"] < 1)
+
+
+def test_scaling_all_lengths_leaves_kd_of_p_over_mu_unchanged(reference):
+    big = solve_cell(ref_cell().scaled(7.5), 1.2 * MU)
+    a, b = reference.path, big.path
+    np.testing.assert_allclose(b.pressure / MU, a.pressure / MU, rtol=1e-7, atol=1e-12)
+    np.testing.assert_allclose(b.curvature * big.length, a.curvature * reference.length,
+                               rtol=1e-6, atol=1e-9)
+    np.testing.assert_allclose(b.volume / 7.5**3, a.volume, rtol=1e-6)
+
+
+@pytest.mark.parametrize("s", [0.1, 3.0])
+def test_scaling_moduli_scales_every_characteristic_pressure(reference, s):
+    cell = ref_cell(material=WALL.scaled(s), bottom_material=BOTTOM.scaled(s))
+    r = solve_cell(cell, 1.2 * MU * s)
+    for name in ("critical", "hardening"):
+        assert getattr(r.characteristic, name) == pytest.approx(
+            s * getattr(reference.characteristic, name), rel=1e-6)
+    np.testing.assert_allclose(r.path.curvature, reference.path.curvature, rtol=1e-6,
+                               atol=1e-9)
+
+
+@pytest.mark.parametrize(("field", "values"), [
+    ("top_wall", (0.6e-3, 0.8e-3, 1.0e-3)),
+    ("side_wall", (1.0e-3, 1.5e-3, 2.0e-3)),
+    ("end_wall", (1.0e-3, 1.5e-3, 2.5e-3)),
+])
+def test_pc_increases_with_wall_thickness(field, values):
+    pcs = [solve_cell(ref_cell(**{field: v}), 1.5 * MU).characteristic.critical
+           for v in values]
+    assert np.all(np.diff(pcs) > 0), pcs
+
+
+def test_pc_increases_with_modulus():
+    # at fixed geometry and fixed bottom layer, a stiffer wall elastomer activates later
+    pcs = [solve_cell(ref_cell(material=WALL.scaled(s)), 1.5 * MU * s).characteristic.critical
+           for s in (0.6, 1.0, 1.6)]
+    assert np.all(np.diff(pcs) > 0), pcs
+
+
+def test_finite_chamber_length_matters():
+    short = solve_cell(ref_cell(length=12e-3), 1.5 * MU)
+    long_ = solve_cell(ref_cell(length=40e-3), 1.5 * MU)
+    assert short.characteristic.critical > 1.05 * long_.characteristic.critical
+
+
+def test_unreachable_pressure_says_where_and_why():
+    # far beyond lock-up the path cannot reach p_max within the step budget: a clear error
+    # with the last converged pressure, and no NaN on the way
+    with pytest.raises(ContinuationError, match=r"could not trace .* last converged P = .*kPa"):
+        solve_cell(ref_cell(), 1000 * MU)
+
+
+def test_batch_matches_single(reference):
+    cells = [ref_cell(), ref_cell(top_wall=1.0e-3)]
+    rb = solve_batch(cells, 1.2 * MU)
+    assert rb.ok.all()
+    r0 = rb.response(0)
+    assert r0.characteristic.critical == pytest.approx(reference.characteristic.critical,
+                                                       rel=1e-6)
+    assert rb.response(1).characteristic.critical > r0.characteristic.critical
+
+
+# ----------------------------------------------------------------------------- CLI
+SPEC = """
+[cell]
+length = "20 mm"
+width = "10 mm"
+height = "8 mm"
+top_wall = "0.8 mm"
+bottom_wall = "2 mm"
+side_wall = "1.5 mm"
+end_wall = "1.5 mm"
+
+[cell.material]
+model = "gent"
+mu = "245 kPa"
+jm = 20
+
+[cell.bottom_material]
+model = "gent"
+mu = "1.2 MPa"
+jm = 20
+"""
+
+KEYS = {"pressure", "curvature", "bend_angle", "stable", "critical_pressure",
+        "hardening_pressure", "failure_pressure"}
+
+
+def _run(args):
+    _register()
+    return CliRunner().invoke(app, args)
+
+
+def test_cli_json_keys_and_files(tmp_path):
+    spec = tmp_path / "c.toml"
+    spec.write_text(SPEC)
+    out = tmp_path / "out"
+    res = _run(["cell", str(spec), "--pmax", "300 kPa", "--json", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    data = json.loads(res.stdout)
+    assert KEYS <= set(data)
+    assert len(data["pressure"]) == len(data["curvature"]) == len(data["bend_angle"])
+    assert data["pressure"][-1] == pytest.approx(300e3)
+    assert 0 < data["critical_pressure"] < data["hardening_pressure"] < 300e3
+    assert data["failure_pressure"] is None
+    np.testing.assert_allclose(data["bend_angle"], np.array(data["curvature"]) * 0.02)
+    assert (out / "response.json").is_file() and (out / "curvature.png").stat().st_size > 1000
+
+
+def test_cli_human_output(tmp_path):
+    spec = tmp_path / "c.toml"
+    spec.write_text(SPEC)
+    res = _run(["cell", str(spec), "--pmax", "300 kPa", "--out", str(tmp_path / "o")])
+    assert res.exit_code == 0, res.output
+    assert "Pc" in res.output and "kPa" in res.output
+
+
+@pytest.mark.parametrize(("bad", "message"), [
+    ('side_wall = "1.5 mm"', "side_wall"),
+    ('top_wall = "0.8 mm"', "top_wall"),
+])
+def test_cli_malformed_spec_fails_precisely_and_writes_nothing(tmp_path, bad, message):
+    spec = tmp_path / "bad.toml"
+    fixed = bad.split("=")[0] + '= "6 mm"' if "side" in bad else bad.split("=")[0] + '= "-1 mm"'
+    spec.write_text(SPEC.replace(bad, fixed))
+    out = tmp_path / "out"
+    res = _run(["cell", str(spec), "--out", str(out)])
+    assert res.exit_code != 0
+    assert message in res.output
+    assert not out.exists()
+
+
+def test_cell_geometry_replace_keeps_validation():
+    with pytest.raises(Exception, match="side_wall"):
+        replace(ref_cell(), side_wall=6e-3)
