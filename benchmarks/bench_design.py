@@ -37,6 +37,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--population", type=int, default=24)
     ap.add_argument("--samples", type=int, default=64)
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--vectorised", action="store_true",
+                    help="vmapped ROM batches (default: loop of single-design traces)")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
 
@@ -59,7 +61,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"note: {args.target} has {len(target.stages)} stages", file=sys.stderr)
     settings = DesignSettings(budget=args.budget, population=args.population, seed=args.seed)
     space = SearchSpace(target)
-    model = CountingModel(rom_batch_model(), pad_to=settings.population * space.n_stages)
+    model = CountingModel(rom_batch_model(args.vectorised),
+                          pad_to=settings.population * space.n_stages)
     t0 = time.perf_counter()
     evaluate_population(space, np.random.default_rng(0).random((settings.population,
                                                                 space.dim)), model)

@@ -21,7 +21,7 @@ EXAMPLES = Path(__file__).parents[1] / "examples"
 def app(monkeypatch) -> typer.Typer:
     import multimorph.design as des
 
-    monkeypatch.setattr(des, "rom_batch_model", lambda: STANDIN)
+    monkeypatch.setattr(des, "rom_batch_model", lambda vectorised=False: STANDIN)
     a = typer.Typer(pretty_exceptions_enable=False)
     _design.register(a)
     a.command("noop")(lambda: None)  # keep 'design' a sub-command

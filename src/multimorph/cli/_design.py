@@ -40,6 +40,9 @@ def design_command(
         "--robust", help="Rank the shortlist by a robust objective (Monte Carlo).")] = False,
     verify_fe: Annotated[bool, typer.Option(
         "--verify-fe", help="Check the best design's cells with the FE model.")] = False,
+    vectorised: Annotated[bool, typer.Option(
+        "--vectorised", help="Trace each batch with the vmapped ROM (default: a loop of "
+        "single-design traces, faster on small CPUs today).")] = False,
     as_json: Annotated[bool, typer.Option("--json", help="Print the JSON report.")] = False,
 ) -> None:
     """Design a device whose predicted sequence of motions meets a target.
@@ -93,7 +96,8 @@ def design_command(
                 bar.update(task, completed=min(done, total), description=f"search: {phase}")
 
             # one model, one batch shape for search, Monte Carlo and the final simulation
-            model = CountingModel(rom_batch_model(), pad_to=population * len(spec.stages))
+            model = CountingModel(rom_batch_model(vectorised),
+                                  pad_to=population * len(spec.stages))
             result = design(spec, model=model, settings=settings, progress=progress)
             rob = None
             if result.best is not None and result.feasible and robustness > 0:
