@@ -187,3 +187,16 @@ def test_cli_malformed_spec_fails_precisely_and_writes_nothing(tmp_path, bad, me
 def test_cell_geometry_replace_keeps_validation():
     with pytest.raises(Exception, match="side_wall"):
         replace(ref_cell(), side_wall=6e-3)
+
+
+def test_example_script_pc_rises_with_top_wall():
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "examples" / "cell_sweep_ht.py"
+    spec = importlib.util.spec_from_file_location("example_cell_sweep_ht", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    rows = module.main()
+    pcs = [r["Pc/mu"] for r in rows]
+    assert np.all(np.diff(pcs) > 0) and 0.3 < pcs[1] < 0.7
