@@ -52,7 +52,13 @@ def main() -> None:
     from multimorph.materials import Material
     from multimorph.rom import solve_batch, solve_cell
 
-    rows: list[tuple[str, str]] = [("device", f"{jax.devices()[0]} ({os.cpu_count()} cpus)")]
+    class Rows(list):
+        def append(self, row: tuple[str, str]) -> None:  # print as soon as measured
+            super().append(row)
+            print(f"{row[0]:<40}  {row[1]}", flush=True)
+
+    rows: list[tuple[str, str]] = Rows()
+    rows.append(("device", f"{jax.devices()[0]} ({os.cpu_count()} cpus)"))
     batch = random_batch(args.n)
     chunk = min(args.chunk, args.n)
 
@@ -98,6 +104,7 @@ def main() -> None:
     rows.append(("single curve (median, warm)", f"{1e3 * float(np.median(times)):.1f} ms "
                  f"({len(r.path)} points, incl. Pc/Ph)"))
     width = max(len(a) for a, _ in rows)
+    print()
     print(f"{'quantity'.ljust(width)}  value")
     print(f"{'-' * width}  {'-' * 30}")
     for a, b in rows:
