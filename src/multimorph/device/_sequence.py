@@ -3,11 +3,13 @@
 Definitions (all pressures in Pa):
 
 - *activation window* of a module: [Pc, Ph] from its characteristic pressures;
-- *stage order*: modules sorted by Pc;
+- *stage order*: modules sorted by Pc; modules whose Pc agree within 2 % (identical cells,
+  e.g. the upper and lower chambers of the double-curvature device) form one *stage*;
 - *dominance*: at pressure P the dominant module is the one whose normalised motion
   m(P)/m(Pmax) rises fastest (largest d/dP of the normalised measure); bands are the
   contiguous pressure ranges with the same dominant module;
-- *separation margin* between consecutive stages A then B: ``Pc_B − Ph_A``; relative to
+- *separation margin* between each module A of a stage and each module B of the next stage:
+  ``Pc_B − Ph_A``; relative to
   Pc_B it is ``matched`` within ``tolerance`` (default 10 %), a ``gap`` above, an ``overlap``
   below (A still moving when B starts);
 - *failure order*: modules sorted by the pressure at which their peak stretch reaches the
@@ -66,6 +68,7 @@ class SequenceReport:
     """Result of :func:`analyse_sequence` (JSON via :meth:`to_dict`)."""
 
     order: list[str]
+    stages: list[list[str]]
     windows: dict[str, tuple[float | None, float | None]]
     bands: list[dict[str, Any]]
     margins: list[dict[str, Any]]
@@ -77,6 +80,7 @@ class SequenceReport:
     def to_dict(self) -> dict[str, Any]:
         return {
             "order": self.order,
+            "stages": self.stages,
             "windows": {k: {"critical_pressure": v[0], "hardening_pressure": v[1]}
                         for k, v in self.windows.items()},
             "bands": self.bands,
@@ -156,7 +160,8 @@ def analyse_sequence(curves: Sequence[ModuleCurve], *, tolerance: float = 0.10,
                           "from_pressure": float(grid[start]),
                           "to_pressure": float(grid[i - 1])})
             start = i
-    # merge bands narrower than 2 % of the range into their predecessor (noise at hand-overs)
+    # merge bands narrower than 2 % of the range into a neighbour (noise at hand-overs and
+    # at P = 0, where every rate is near zero)
     merged: list[dict[str, Any]] = []
     for b in bands:
         if merged and (b["to_pressure"] - b["from_pressure"] < 0.02 * pmax
@@ -164,18 +169,35 @@ def analyse_sequence(curves: Sequence[ModuleCurve], *, tolerance: float = 0.10,
             merged[-1]["to_pressure"] = b["to_pressure"]
         else:
             merged.append(dict(b))
+    if len(merged) > 1 and merged[0]["to_pressure"] - merged[0]["from_pressure"] < 0.02 * pmax:
+        merged[1]["from_pressure"] = merged[0]["from_pressure"]
+        merged.pop(0)
 
+    stages: list[list[ModuleCurve]] = []
+    for c in order:
+        if (stages and c.critical is not None and stages[-1][0].critical is not None
+                and abs(c.critical - stages[-1][0].critical) <= 0.02 * abs(c.critical)):
+            stages[-1].append(c)
+        else:
+            stages.append([c])
+    # same-stage modules (identical windows) share their bands
+    stage_of = {c.name: i for i, st in enumerate(stages) for c in st}
+    for b in merged:
+        b["stage"] = stage_of[b["module"]]
     margins: list[dict[str, Any]] = []
-    for a, b in itertools.pairwise(order):
-        if a.hardening is None or b.critical is None:
-            margins.append({"earlier": a.name, "later": b.name, "margin": None,
-                            "relative_margin": None, "verdict": "undetermined"})
-            continue
-        margin = b.critical - a.hardening
-        rel = margin / b.critical if b.critical else float("nan")
-        verdict = "matched" if abs(rel) <= tolerance else ("gap" if rel > 0 else "overlap")
-        margins.append({"earlier": a.name, "later": b.name, "margin": margin,
-                        "relative_margin": rel, "verdict": verdict})
+    for sa, sb in itertools.pairwise(stages):
+        for a in sa:
+            for b in sb:
+                if a.hardening is None or b.critical is None:
+                    margins.append({"earlier": a.name, "later": b.name, "margin": None,
+                                    "relative_margin": None, "verdict": "undetermined"})
+                    continue
+                margin = b.critical - a.hardening
+                rel = margin / b.critical if b.critical else float("nan")
+                verdict = ("matched" if abs(rel) <= tolerance
+                           else ("gap" if rel > 0 else "overlap"))
+                margins.append({"earlier": a.name, "later": b.name, "margin": margin,
+                                "relative_margin": rel, "verdict": verdict})
 
     failing = sorted((c for c in curves if c.failure is not None),
                      key=lambda c: c.failure)  # type: ignore[arg-type, return-value]
@@ -184,6 +206,7 @@ def analyse_sequence(curves: Sequence[ModuleCurve], *, tolerance: float = 0.10,
                        key=lambda n: -release[n])  # type: ignore[operator]
     return SequenceReport(
         order=[c.name for c in order],
+        stages=[[c.name for c in st] for st in stages],
         windows=windows,
         bands=merged,
         margins=margins,
