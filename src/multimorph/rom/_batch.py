@@ -29,7 +29,7 @@ from multimorph.rom._continuation import (
     TracerSettings,
     make_tracer,
 )
-from multimorph.rom._model import DEFAULT_SETTINGS, cell_theta, free_settings
+from multimorph.rom._model import DEFAULT_SETTINGS, cell_theta, free_settings, padded_measures
 
 __all__ = ["CellBatch", "ResponseBatch", "simulate_cells", "solve_batch"]
 
@@ -156,8 +156,7 @@ class ResponseBatch:
         free = list(self.options.free)
         qf = self.q[i, :m][:, free]
         p = self.pressure[i, :m] / c.mu[i]
-        meas = _measures(c.wall_law, c.bottom_law, self.options)(jnp.asarray(qf),
-                                                                  jnp.asarray(p), th)
+        meas = padded_measures(_measures(c.wall_law, c.bottom_law, self.options), qf, p, th)
         del ck
         d = float(c.length[i])
         r = c.ratios

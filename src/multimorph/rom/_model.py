@@ -68,6 +68,23 @@ def _kernels(wall_law: str, bottom_law: str, options: RomOptions,
     return ck, tracer, measures
 
 
+def padded_measures(fn: Any, qf: Any, p: Any, theta: Any) -> dict[str, np.ndarray]:
+    """Evaluate a vmapped measures kernel on path points padded to a power-of-two length.
+
+    Paths have as many points as the tracer accepted, which differs from design to design;
+    padding (by repeating the last point) to bucketed lengths keeps the number of compiled
+    shapes small instead of compiling once per path length.
+    """
+    qf = np.asarray(qf, float)
+    p = np.asarray(p, float)
+    m = qf.shape[0]
+    n = 1 << max(4, (m - 1).bit_length())
+    qpad = np.concatenate([qf, np.repeat(qf[-1:], n - m, axis=0)])
+    ppad = np.concatenate([p, np.repeat(p[-1:], n - m)])
+    out = fn(jnp.asarray(qpad), jnp.asarray(ppad), theta)
+    return {k: np.asarray(v)[:m] for k, v in out.items()}
+
+
 def _check_pmax(p_max: float) -> float:
     p = float(p_max)
     if not (math.isfinite(p) and p > 0):
@@ -157,8 +174,7 @@ def solve_cell(cell: CellGeometry, p_max: float, *, options: RomOptions | None =
             f"cell ROM: could not trace the equilibrium path to {p_max / 1e3:.4g} kPa"
             f"{where} ({why}; last converged P = {raw.p[-1] * mu / 1e3:.4g} kPa)")
     qf = raw.q
-    meas = {k: np.asarray(v) for k, v in measures(jnp.asarray(qf), jnp.asarray(raw.p),
-                                                  theta).items()}
+    meas = padded_measures(measures, qf, raw.p, theta)
     q = np.zeros((qf.shape[0], 4))
     q[:, list(opts.free)] = qf
     path = path_from_raw(cell, raw, q, meas)
