@@ -125,7 +125,7 @@ def test_demo_on_two_materials(app: typer.Typer, runner: CliRunner, tmp_path: Pa
     subset = {k: build_library.MARECHAL[k] for k in ("dragon_skin_30", "rtv615")}
     monkeypatch.setattr(build_library, "MARECHAL", subset)
     out = tmp_path / "demo"
-    r = runner.invoke(app, ["demo", "--out", str(out), "--json"])
+    r = runner.invoke(app, ["demo", "--out", str(out), "--json", "--no-device"])
     assert r.exit_code == 0, r.output
     d = json.loads(r.stdout)
     rows = {m["name"]: m for m in d["materials"]["materials"]}

@@ -99,3 +99,35 @@ def test_handover_is_matched(case):
     margin = next(m for m in result.sequence.margins
                   if m["earlier"] == early and m["later"] == late)
     assert margin["verdict"] == "matched"
+
+
+def test_demo_copy_of_the_gripper_matches_the_example():
+    from importlib.resources import files
+
+    packaged = files("multimorph.device").joinpath("data/gripper.toml").read_text("utf-8")
+    assert packaged == (EXAMPLES / "gripper.toml").read_text("utf-8")
+
+
+def test_demo_runs_the_whole_chain(tmp_path, monkeypatch):
+    import json
+
+    import typer
+    from typer.testing import CliRunner
+
+    from multimorph.cli import _demo
+    from multimorph.materials import build_library
+
+    # two silicones keep the materials part short; the device part is the real gripper
+    subset = {k: build_library.MARECHAL[k] for k in ("dragon_skin_30", "rtv615")}
+    monkeypatch.setattr(build_library, "MARECHAL", subset)
+    app = typer.Typer(pretty_exceptions_enable=False)
+    _demo.register(app)
+    app.command("noop")(lambda: None)  # keep 'demo' a sub-command, as in the real CLI
+    out = tmp_path / "demo"
+    r = CliRunner().invoke(app, ["demo", "--out", str(out), "--json"])
+    assert r.exit_code == 0, r.output
+    d = json.loads(r.stdout)
+    assert d["device"]["order"] == ["fingers", "twister"]
+    assert {"sequence.png", "shapes.png", "morph.gif", "summary.json"} <= {
+        p.name for p in (out / "gripper").iterdir()}
+    assert (out / "report.md").read_text().count("| fingers |") == 1

@@ -1,7 +1,10 @@
-"""``multimorph demo``: the end-to-end demonstration (for now: the materials room).
+"""``multimorph demo``: the end-to-end demonstration.
 
-Fits Gent and Yeoh to every built-in silicone from the shipped Marechal et al. (2021) data
-over the design range λ ≤ 4 and writes a fit report (Markdown + JSON) and plots.
+1. materials: fits Gent and Yeoh to every built-in silicone from the shipped Marechal et al.
+   (2021) data over the design range λ ≤ 4 (fit report, plots);
+2. device: the bend-then-twist gripper (library silicones → unit cells by the reduced model →
+   modules on one pressure line → sequence analysis, shapes, animation). The spec is the
+   package copy of ``examples/gripper.toml`` (a test keeps the two identical).
 """
 
 from __future__ import annotations
@@ -47,6 +50,61 @@ def _materials_section(folder: Path, progress: Any) -> dict[str, Any]:
             "figure": "silicone_fits.png"}
 
 
+def _device_section(folder: Path) -> dict[str, Any]:
+    from importlib.resources import files
+
+    from multimorph.device import device_from_spec, simulate_device
+    from multimorph.io import write_json
+    from multimorph.viz._device_plots import (
+        module_curves_figure,
+        shapes_figure,
+        write_animation,
+    )
+
+    text = files("multimorph.device").joinpath("data/gripper.toml").read_text("utf-8")
+    import tomllib
+
+    device = device_from_spec(tomllib.loads(text))
+    result = simulate_device(device)
+    (folder / "gripper").mkdir()
+    (folder / "gripper" / "gripper.toml").write_text(text, encoding="utf-8")
+    write_json(folder / "gripper" / "summary.json", result.to_dict())
+    module_curves_figure(result).savefig(folder / "gripper" / "sequence.png", dpi=130)
+    shapes_figure(result, [0.0, 20e3, 40e3, 60e3]).savefig(folder / "gripper" / "shapes.png",
+                                                           dpi=110)
+    write_animation(result, folder / "gripper" / "morph.gif", frames=20)
+    seq = result.sequence
+    return {
+        "device": device.name, "pmax": result.pmax, "order": seq.order,
+        "windows": {n: {"critical_pressure": w[0], "hardening_pressure": w[1]}
+                    for n, w in seq.windows.items()},
+        "margins": seq.margins, "bands": seq.bands, "first_to_fail": seq.first_to_fail,
+        "unloading_order": seq.unloading_order,
+        "files": ["gripper/gripper.toml", "gripper/summary.json", "gripper/sequence.png",
+                  "gripper/shapes.png", "gripper/morph.gif"],
+    }
+
+
+def _device_markdown(d: dict[str, Any]) -> str:
+    def k(x: float | None) -> str:
+        return "—" if x is None else f"{x / 1e3:.1f} kPa"
+
+    lines = ["## Device: " + d["device"], "",
+             "Library silicones → unit cells (reduced model) → modules on one pressure line.", "",
+             "| module | Pc | Ph |", "|---|---:|---:|"]
+    for n in d["order"]:
+        w = d["windows"][n]
+        lines.append(f"| {n} | {k(w['critical_pressure'])} | {k(w['hardening_pressure'])} |")
+    lines.append("")
+    for m in d["margins"]:
+        if m["margin"] is not None:
+            lines.append(f"- hand-over {m['earlier']} → {m['later']}: {m['verdict']} "
+                         f"(Pc − Ph = {m['margin'] / 1e3:+.1f} kPa)")
+    lines += ["", "![sequence](gripper/sequence.png)", "", "![shapes](gripper/shapes.png)",
+              "", "![morph](gripper/morph.gif)", ""]
+    return "\n".join(lines)
+
+
 def _markdown(section: dict[str, Any]) -> str:
     def k(x: float | None) -> str:
         return "-" if x is None or not math.isfinite(x) else f"{x / 1e3:.1f}"
@@ -81,6 +139,9 @@ def demo(
     out: Annotated[Path, typer.Option("--out", "-o", help="Output folder.")
                    ] = Path("multimorph-out/demo"),
     as_json: Annotated[bool, typer.Option("--json", help="Print the report as JSON.")] = False,
+    device: Annotated[bool, typer.Option(
+        "--device/--no-device", help="Also simulate the gripper device (the whole chain).")
+                      ] = True,
 ) -> None:
     """Run the demonstration and write a report (Markdown, JSON, PNG) to a folder.
 
@@ -95,14 +156,24 @@ def demo(
                 TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
                 console=err_console, transient=True) as progress:
             report = {"materials": _materials_section(tmp, progress)}
+            md = _markdown(report["materials"])
+            if device:
+                task = progress.add_task("simulating the gripper", total=None)
+                report["device"] = _device_section(tmp)
+                progress.update(task, total=1, completed=1)
+                md += "\n" + _device_markdown(report["device"])
             write_json(tmp / "report.json", report)
-            (tmp / "report.md").write_text(_markdown(report["materials"]), encoding="utf-8")
+            (tmp / "report.md").write_text(md, encoding="utf-8")
         if as_json:
             emit_json({**report, "out": str(out)})
             return
         console.print(_markdown(report["materials"]).split("![fits]")[0], markup=False,
                       highlight=False)
-        console.print(f"wrote {out}/report.md, report.json, silicone_fits.png")
+        if device:
+            console.print(_device_markdown(report["device"]).split("![sequence]")[0],
+                          markup=False, highlight=False)
+        console.print(f"wrote {out}/report.md, report.json, silicone_fits.png"
+                      + (", gripper/ (sequence, shapes, morph.gif)" if device else ""))
 
 
 def register(app: typer.Typer) -> None:
