@@ -1,0 +1,55 @@
+"""``multimorph simulate``: files and JSON for a device; malformed specs fail cleanly."""
+
+import json
+
+import pytest
+import typer
+from typer.testing import CliRunner
+
+from multimorph.cli import _simulate
+from test_device_simulate import SPEC, step_model
+
+
+@pytest.fixture()
+def app(monkeypatch):
+    # the closed-form cell model keeps this a test of the command layer, not of the ROM
+    from multimorph.device import _simulate as sim
+
+    monkeypatch.setattr(sim, "default_cell_model", step_model)
+    a = typer.Typer(pretty_exceptions_enable=False)
+    _simulate.register(a)
+    a.command("noop")(lambda: None)
+    return a
+
+
+def test_simulate_writes_files_and_json(app, tmp_path):
+    spec = tmp_path / "dev.toml"
+    spec.write_text(SPEC)
+    out = tmp_path / "out"
+    r = CliRunner().invoke(app, ["simulate", str(spec), "--out", str(out), "--json",
+                                 "--frames", "3"])
+    assert r.exit_code == 0, r.output
+    d = json.loads(r.stdout)
+    assert d["sequence"]["order"] == ["base", "tip"]
+    assert d["modules"]["base"]["critical_pressure"] == pytest.approx(15e3)
+    assert {p.name for p in out.iterdir()} == {"summary.json", "curves.csv", "sequence.png",
+                                              "shapes.png", "morph.gif"}
+
+
+@pytest.mark.parametrize(("edit", "message"), [
+    (lambda s: s.replace('material = "soft"', 'material = "unobtainium"'), "unobtainium"),
+    (lambda s: s.replace('orientation = "180 deg"', 'orientation = 180'), "orientation"),
+    (lambda s: s.replace('side_wall = "1.5 mm"', 'side_wall = "5 mm"', 1), "leaves no chamber"),
+    (lambda s: s.replace('cells = 4\norientation', 'cells = 4\nstart = "5 mm"\norientation'),
+     "overlap"),
+    (lambda s: s.replace('top_wall = "1 mm"', 'top_wall = "-1 mm"', 1), "positive length"),
+])
+def test_malformed_device_exits_nonzero_and_writes_nothing(app, tmp_path, edit, message):
+    spec = tmp_path / "dev.toml"
+    spec.write_text(edit(SPEC))
+    out = tmp_path / "out"
+    r = CliRunner().invoke(app, ["simulate", str(spec), "--out", str(out)])
+    assert r.exit_code == 2
+    assert message in r.output
+    assert not out.exists()
+    assert not list(tmp_path.glob(".out.tmp-*"))
