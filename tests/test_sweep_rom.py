@@ -43,9 +43,10 @@ def test_pc_rises_with_wall_ratios(tmp_path: Path) -> None:
     # (batches of 4 everywhere: the jitted model compiles once for this module)
     for name in ("sweep_ht.toml", "sweep_ws.toml", "sweep_df.toml"):
         spec = small(name, 4, tmp_path)
-        s = run_sweep(spec, tmp_path / name, scheduler="threads", workers=1, batch_size=4)
+        out = tmp_path / f"out-{Path(name).stem}"
+        s = run_sweep(spec, out, scheduler="threads", workers=1, batch_size=4)
         assert s.n_ok == 4, s.failed
-        pc = open_results(tmp_path / name)["critical_pressure"].values
+        pc = open_results(out)["critical_pressure"].values
         assert np.all(np.isfinite(pc)), (name, pc)
         assert np.all(np.diff(pc) > 0), (name, pc)
 
