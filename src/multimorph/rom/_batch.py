@@ -195,7 +195,7 @@ def _batched(wall_law: str, bottom_law: str, options: RomOptions,
              settings: TracerSettings) -> Any:
     ck = cell_kernel(wall_law, bottom_law, options)
     kernel = make_tracer(ck.energy, ck.n_free, free_settings(settings, options),
-                         ck.admissible)
+                         ck.admissible, ck.derivatives)
     return jax.jit(jax.vmap(kernel, in_axes=(None, 0, 0))), ck.n_free
 
 

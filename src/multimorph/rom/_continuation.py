@@ -80,6 +80,11 @@ class TracerSettings:
     tol : float
         Converged when max |R| is below ``tol`` times max |∂R/∂p| (the load vector of one
         ``p_scale`` of pressure) and the arc-length equation holds to ``tol``.
+    step_tol : float
+        Also converged when the Newton correction is below ``step_tol`` (scaled units): the
+        corrected point is accepted without another evaluation (Newton converges
+        quadratically, so its residual is of order ``step_tol²``); its tangent and
+        stability come from the Hessian one correction earlier. 0 disables this.
     max_turn : float
         Largest angle (rad) between successive unit tangents of an accepted step.
     q_scale, p_scale : tuple of float, float
@@ -95,6 +100,7 @@ class TracerSettings:
     ds_min: float = 1e-7
     n_newton: int = 8
     tol: float = 1e-9
+    step_tol: float = 1e-5
     max_turn: float = 0.35
     q_scale: tuple[float, ...] = field(default=())
     p_scale: float = 1.0
@@ -122,6 +128,8 @@ class RawPath:
     fail_step, fail_p : int, float
         Step index and load parameter where the trace stopped early (status 2).
     n_rejected : int
+    n_eval : int
+        Evaluations of the energy's gradient and Hessian (Newton iterations, all steps).
     """
 
     q: np.ndarray
@@ -133,6 +141,7 @@ class RawPath:
     fail_step: int
     fail_p: float
     n_rejected: int
+    n_eval: int = 0
 
     @property
     def ok(self) -> bool:
@@ -156,10 +165,12 @@ class RawPath:
 
 EnergyFn = Callable[[Any, Any, Any], Any]
 AdmissibleFn = Callable[[Any, Any], Any]
+DerivativesFn = Callable[[Any, Any, Any], tuple[Any, Any]]
 
 
 def make_tracer(energy: EnergyFn, n: int, settings: TracerSettings,
-                admissible: AdmissibleFn | None = None) -> Callable[..., dict[str, Any]]:
+                admissible: AdmissibleFn | None = None,
+                derivatives: DerivativesFn | None = None) -> Callable[..., dict[str, Any]]:
     """Build the (un-jitted, vmappable) tracer kernel for ``energy(q, p, theta)``.
 
     Parameters
@@ -173,6 +184,10 @@ def make_tracer(energy: EnergyFn, n: int, settings: TracerSettings,
     admissible : callable, optional
         ``admissible(q, theta) -> scalar``; a state is admissible while below
         ``settings.admissible_max`` (e.g. the largest (I1 − 3)/Jm).
+    derivatives : callable, optional
+        ``derivatives(q, p, theta) -> (g, H)``: gradient (n + 1,) and Hessian (n + 1, n + 1)
+        of the energy over (q, p), when the caller has a cheaper form than AD of ``energy``
+        as a whole (must agree with it).
 
     Returns
     -------
@@ -180,7 +195,7 @@ def make_tracer(energy: EnergyFn, n: int, settings: TracerSettings,
         ``kernel(q0, theta, p_max) -> dict`` of JAX arrays: ``u`` (n_steps+1, n+1) accepted
         states (q, p) in order, the first ``count`` rows valid; ``stable``, ``tp`` (dp/ds of
         the tangent) likewise; scalars ``count``, ``status``, ``reason``, ``fail_step``,
-        ``fail_p``, ``n_rej``.
+        ``fail_p``, ``n_rej``, ``n_eval`` (derivative evaluations = loop iterations).
     """
     s = settings
     qs = jnp.asarray(s.q_scale if s.q_scale else (1.0,) * n, dtype=float)
@@ -197,6 +212,10 @@ def make_tracer(energy: EnergyFn, n: int, settings: TracerSettings,
         grad = jax.jacfwd(pi_scaled)
 
         def derivs(u: Any) -> tuple[Any, Any]:
+            if derivatives is not None:
+                x = u * scale
+                g, H = derivatives(x[:n], x[n], theta)
+                return g * scale, H * (scale[:, None] * scale[None, :])
             # forward-over-forward: fewer operations than jacfwd(grad) for a handful of dofs
             H, g = jax.jacfwd(lambda v: (grad(v), grad(v)), has_aux=True)(u)
             return g, H
@@ -217,42 +236,39 @@ def make_tracer(energy: EnergyFn, n: int, settings: TracerSettings,
         c0 = jnp.ones(n + 1) / jnp.sqrt(n + 1.0)
         p_max_s = p_max / ps
         N = s.n_steps
+        last = jnp.arange(n + 1) == n
 
-        def corrector(up: Any, c: Any, target: Any) -> tuple[Any, Any, Any, Any]:
-            """Newton on (R = 0, c·v = target) from ``up``; one derivative site (compiles once).
-
-            Returns the final iterate, g and H evaluated there, and whether it converged.
-            """
-            def body(st: Any) -> Any:
-                v, g, H, it, conv = st
-                g, H = derivs(v)
-                # residual relative to the load vector of one p_scale of pressure
-                load = jnp.maximum(jnp.max(jnp.abs(H[:n, n])), 1e-300)
-                r = jnp.maximum(jnp.max(jnp.abs(g[:n])) / load, jnp.abs(jnp.dot(c, v) - target))
-                conv = r < s.tol
-                F = jnp.concatenate([g[:n], jnp.array([jnp.dot(c, v) - target])])
-                dv = solve_small(bordered(H, c), -F)
-                v = jnp.where(conv, v, v + dv)
-                return v, g, H, it + 1, conv
-
-            def cond(st: Any) -> Any:
-                return (st[3] <= s.n_newton) & ~st[4]
-
-            z = jnp.zeros((n + 1, n + 1))
-            v, g, H, _, conv = jax.lax.while_loop(
-                cond, body, (up, z[0], z, 0, jnp.asarray(False)))
-            return v, g, H, conv
-
-        def step(carry: Any) -> Any:
-            (u, t, ds, k, m, status, reason, fail_step, fail_p, nrej,
-             U, ST, TP) = carry
+        def predictor(u: Any, t: Any, ds: Any, k: Any) -> tuple[Any, Any, Any, Any]:
+            """Start of step k: predictor v0, hyperplane normal c and target, final flag."""
             start = k == 0
             up = jnp.where(start, u, u + ds * t)
             final = (up[n] >= p_max_s) & (t[n] > 0) & ~start
             c = jnp.where(final | start, e_last, t)
             target = jnp.where(final, p_max_s, jnp.where(start, 0.0, jnp.dot(t, up)))
-            v0 = jnp.where(final, up.at[n].set(p_max_s), up)
-            v, g, H, conv = corrector(v0, c, target)
+            v0 = jnp.where(final & last, p_max_s, up)
+            return v0, c, target, final
+
+        # One loop iteration = one derivative evaluation: a Newton iteration of the current
+        # step's corrector, or, once it converged (or ran out of iterations), the step's
+        # acceptance test and the next step's predictor. Under vmap every design advances on
+        # its own schedule (no design waits for another's Newton iterations).
+        def iterate(carry: Any) -> Any:
+            (u, t, ds, k, m, status, reason, fail_step, fail_p, nrej, nev,
+             v, v0, c, target, final, it, U, ST, TP) = carry
+            start = k == 0
+            g, H = derivs(v)
+            # residual relative to the load vector of one p_scale of pressure
+            load = jnp.maximum(jnp.max(jnp.abs(H[:n, n])), 1e-300)
+            r = jnp.maximum(jnp.max(jnp.abs(g[:n])) / load, jnp.abs(jnp.dot(c, v) - target))
+            # Newton update
+            F = jnp.concatenate([g[:n], jnp.reshape(jnp.dot(c, v) - target, (1,))])
+            dv = solve_small(bordered(H, c), -F)
+            v_newton = v + dv
+            small = jnp.max(jnp.abs(dv)) < s.step_tol
+            conv = (r < s.tol) | small
+            v = jnp.where((r >= s.tol) & small & jnp.all(jnp.isfinite(dv)), v_newton, v)
+            done = conv | (it >= s.n_newton)
+            # end of step: acceptance, tangent, step size, storage
             finite = jnp.all(jnp.isfinite(v)) & jnp.all(jnp.isfinite(H)) & jnp.all(
                 jnp.isfinite(g))
             admissible_ok = adm(v) < s.admissible_max
@@ -272,18 +288,28 @@ def make_tracer(energy: EnergyFn, n: int, settings: TracerSettings,
             underflow = (~accept) & ((ds_new < s.ds_min) | start)
             reached = accept & final
             m_new = m + accept.astype(jnp.int32)
-            idx = jnp.where(accept, m_new - 1, N + 1)      # out of range: dropped
-            U = U.at[idx].set(v * scale, mode="drop")
-            ST = ST.at[idx].set(stable, mode="drop")
-            TP = TP.at[idx].set(tau[n], mode="drop")
+            # one-hot row update (a batched dynamic index would be a slow scatter under vmap)
+            hot = done & accept & (jnp.arange(N + 1) == m_new - 1)
+            U = jnp.where(hot[:, None], (v * scale)[None, :], U)
+            ST = jnp.where(hot, stable, ST)
+            TP = jnp.where(hot, tau[n], TP)
+            u_new = jnp.where(accept, v, u)
+            t_new = jnp.where(accept, tau, t)
             status_new = jnp.where(reached, 0, jnp.where(
                 underflow, jnp.where(start, 3, 2), status))
-            reason_new = jnp.where(~accept, why, reason)
-            fail_step_new = jnp.where(underflow, k, fail_step)
-            fail_p_new = jnp.where(underflow, u[n] * ps, fail_p)
-            return (jnp.where(accept, v, u), jnp.where(accept, tau, t), ds_new, k + 1, m_new,
-                    status_new, reason_new, fail_step_new, fail_p_new,
-                    nrej + (~accept).astype(jnp.int32), U, ST, TP)
+            nv0, nc, ntarget, nfinal = predictor(u_new, t_new, ds_new, k + 1)
+
+            def pick(a_done: Any, a_cont: Any) -> Any:
+                return jnp.where(done, a_done, a_cont)
+
+            return (pick(u_new, u), pick(t_new, t), pick(ds_new, ds), pick(k + 1, k),
+                    pick(m_new, m), pick(status_new, status),
+                    pick(jnp.where(~accept, why, reason), reason),
+                    pick(jnp.where(underflow, k, fail_step), fail_step),
+                    pick(jnp.where(underflow, u[n] * ps, fail_p), fail_p),
+                    pick(nrej + (~accept).astype(jnp.int32), nrej), nev + 1,
+                    pick(nv0, v_newton), pick(nv0, v0), pick(nc, c), pick(ntarget, target),
+                    pick(nfinal, final), pick(jnp.zeros_like(it), it + 1), U, ST, TP)
 
         def running(carry: Any) -> Any:
             k, m, status = carry[3], carry[4], carry[5]
@@ -292,13 +318,19 @@ def make_tracer(energy: EnergyFn, n: int, settings: TracerSettings,
         U = jnp.zeros((N + 1, n + 1))
         ST = jnp.zeros(N + 1, dtype=bool)
         TP = jnp.zeros(N + 1)
-        carry0 = (u0, c0, jnp.asarray(s.ds0, float), jnp.asarray(0), jnp.asarray(0),
+        ds0 = jnp.asarray(s.ds0, float)
+        k0 = jnp.asarray(0)
+        v0, c, target, final = predictor(u0, c0, ds0, k0)
+        carry0 = (u0, c0, ds0, k0, jnp.asarray(0),
                   jnp.asarray(1), jnp.asarray(0), jnp.asarray(-1), jnp.asarray(0.0),
-                  jnp.asarray(0, jnp.int32), U, ST, TP)
-        carry = jax.lax.while_loop(running, step, carry0)
-        (_, _, _, _, m, status, reason, fail_step, fail_p, nrej, U, ST, TP) = carry
+                  jnp.asarray(0, jnp.int32), jnp.asarray(0, jnp.int32),
+                  v0, v0, c, target, final, jnp.asarray(0), U, ST, TP)
+        carry = jax.lax.while_loop(running, iterate, carry0)
+        (_, _, _, _, m, status, reason, fail_step, fail_p, nrej, nev,
+         *_, U, ST, TP) = carry
         return {"u": U, "count": m, "stable": ST, "tp": TP, "status": status,
-                "reason": reason, "fail_step": fail_step, "fail_p": fail_p, "n_rej": nrej}
+                "reason": reason, "fail_step": fail_step, "fail_p": fail_p, "n_rej": nrej,
+                "n_eval": nev}
 
     return kernel
 
@@ -314,7 +346,8 @@ def raw_path_from_arrays(out: dict[str, Any], n: int, index: int | None = None) 
     return RawPath(q=u[:, :n], p=u[:, n], stable=get("stable")[:m].astype(bool),
                    tangent_p=get("tp")[:m], status=int(get("status")),
                    reason=int(get("reason")), fail_step=int(get("fail_step")),
-                   fail_p=float(get("fail_p")), n_rejected=int(get("n_rej")))
+                   fail_p=float(get("fail_p")), n_rejected=int(get("n_rej")),
+                   n_eval=int(get("n_eval")) if "n_eval" in out else 0)
 
 
 @lru_cache(maxsize=32)

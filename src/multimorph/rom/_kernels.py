@@ -67,28 +67,31 @@ def solve_small(A: Any, b: Any) -> Any:
     """Solve ``A x = b`` for a small dense matrix by Gaussian elimination with partial pivoting.
 
     Unrolled over the (static) size, so it traces to a handful of fused element-wise
-    operations and vectorises under ``vmap``. A zero pivot is replaced by a tiny number
-    (the caller checks the result for finiteness and residual).
+    operations and vectorises under ``vmap``: the row swaps use one-hot masks rather than
+    dynamic indexing (a batched index would become a scatter, which is slow on CPUs). A
+    zero pivot is replaced by a tiny number (the caller checks the result for finiteness
+    and residual).
     """
     n = A.shape[-1]
     M = jnp.concatenate([A, b[:, None]], axis=1)
     rows = jnp.arange(n)
     for k in range(n):
         col = jnp.where(rows >= k, jnp.abs(M[:, k]), -1.0)
-        i = jnp.argmax(col)
+        hot = (rows == jnp.argmax(col))[:, None]
         rk = M[k]
-        ri = M[i]
-        M = M.at[i].set(rk).at[k].set(ri)
-        piv = M[k, k]
+        ri = jnp.sum(jnp.where(hot, M, 0.0), axis=0)
+        M = jnp.where(hot, rk[None, :], M)
+        M = jnp.where((rows == k)[:, None], ri[None, :], M)
+        piv = ri[k]
         piv = jnp.where(jnp.abs(piv) > 1e-300, piv, 1e-300)
         f = jnp.where(rows > k, M[:, k] / piv, 0.0)
-        M = M - f[:, None] * M[k][None, :]
-    x = jnp.zeros(n, dtype=M.dtype)
+        M = M - f[:, None] * ri[None, :]
+    x = []
     for k in range(n - 1, -1, -1):
-        s = M[k, n] - jnp.dot(M[k, :n], x)
+        s = M[k, n] - sum((M[k, j] * x[n - 1 - j] for j in range(k + 1, n)), 0.0)
         piv = jnp.where(jnp.abs(M[k, k]) > 1e-300, M[k, k], 1e-300)
-        x = x.at[k].set(s / piv)
-    return x
+        x.append(s / piv)
+    return jnp.stack(x[::-1])
 
 
 def pivots(K: Any) -> Any:
