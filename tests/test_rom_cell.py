@@ -104,13 +104,18 @@ def test_unreachable_pressure_says_where_and_why():
         solve_cell(ref_cell(), 1000 * MU)
 
 
-def test_batch_matches_single(reference):
+@pytest.mark.parametrize("vectorise", [False, True])
+def test_batch_matches_single(reference, vectorise):
+    """Looped (CPU default) and vmapped batches give the single trace's path."""
     cells = [ref_cell(), ref_cell(top_wall=1.0e-3)]
-    rb = solve_batch(cells, 1.2 * MU)
+    rb = solve_batch(cells, 1.2 * MU, vectorise=vectorise)
     assert rb.ok.all()
     r0 = rb.response(0)
     assert r0.characteristic.critical == pytest.approx(reference.characteristic.critical,
                                                        rel=1e-6)
+    m = int(rb.count[0])
+    np.testing.assert_allclose(rb.curvature[0, :m], reference.path.curvature, rtol=1e-9,
+                               atol=1e-12)
     assert rb.response(1).characteristic.critical > r0.characteristic.critical
 
 
