@@ -20,7 +20,8 @@ EXIT_INFEASIBLE = 3
 
 
 def design_command(
-    target: Annotated[Path, typer.Argument(help="Target spec (TOML): [[stage]], [constraints].")],
+    target: Annotated[Path, typer.Argument(
+        help="Target spec (TOML): \\[[stage]], \\[constraints].")],
     out: Annotated[Path | None, typer.Option(
         "--out", "-o", help="Output folder (default multimorph-out/design-<target name>).")
                    ] = None,
@@ -105,19 +106,24 @@ def design_command(
                 rob = mc(spec, result.best, n_samples=robustness, seed=seed, model=model,
                          wall_tolerance=tol, default_cv=default_cv)
         sequence: dict[str, Any] | None = None
+        sim_error: str | None = None
         dev_result = None
         best = result.best
         if best is not None and best.device is not None:
             from multimorph.device import simulate_device
 
-            dev_result = simulate_device(best.device, cell_model=single_cell(model))
-            sequence = dev_result.sequence.to_dict()
+            try:
+                dev_result = simulate_device(best.device, cell_model=single_cell(model))
+                sequence = dev_result.sequence.to_dict()
+            except MultimorphError as exc:  # the search result stays; the report says why
+                sim_error = f"device simulation of the best design failed: {exc}"
+                err_console.print(f"[yellow]warning:[/] {sim_error}")
         verification = None
         if verify_fe and best is not None and result.feasible:
             with console.status("FE verification of the best design…", spinner="dots"):
                 verification = run_fe_check(spec, best)
         folder = out if out is not None else Path("multimorph-out") / f"design-{target.stem}"
-        report = report_dict(result, rob, sequence, verification)
+        report = report_dict(result, rob, sequence, verification, simulation_error=sim_error)
         files = ["report.json", "report.md", "convergence.png"]
         with atomic_output_dir(folder) as tmp:
             if best is not None and best.device is not None:
@@ -136,8 +142,8 @@ def design_command(
             convergence_figure(result).savefig(tmp / "convergence.png", dpi=110)
             report["files"] = files
             write_json(tmp / "report.json", report)
-            (tmp / "report.md").write_text(report_markdown(result, rob, sequence,
-                                                           verification))
+            (tmp / "report.md").write_text(report_markdown(
+                result, rob, sequence, verification, simulation_error=sim_error))
         if as_json:
             emit_json({**report, "out": str(folder)})
         else:

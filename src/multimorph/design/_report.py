@@ -93,7 +93,7 @@ def _fmt_mag(kind: str, v: float | None) -> str:
 
 def report_dict(result: DesignResult, robust: RobustnessReport | None = None,
                 sequence: dict[str, Any] | None = None, verification: Any = None,
-                ) -> dict[str, Any]:
+                simulation_error: str | None = None) -> dict[str, Any]:
     """Everything of a run as a JSON-able dict (SI units)."""
     t = result.target
     out = result.to_dict()
@@ -103,12 +103,14 @@ def report_dict(result: DesignResult, robust: RobustnessReport | None = None,
     out["tolerance"] = {"pressure": t.tolerance.pressure, "magnitude": t.tolerance.magnitude}
     out["robustness"] = None if robust is None else robust.to_dict()
     out["sequence"] = sequence
+    out["simulation_error"] = simulation_error
     out["verification"] = verification
     return out
 
 
 def report_markdown(result: DesignResult, robust: RobustnessReport | None = None,
-                    sequence: dict[str, Any] | None = None, verification: Any = None) -> str:
+                    sequence: dict[str, Any] | None = None, verification: Any = None,
+                    simulation_error: str | None = None) -> str:
     """A human-readable report of a run."""
     t = result.target
     L = [f"# Design report: {t.name}", ""]
@@ -152,6 +154,8 @@ def report_markdown(result: DesignResult, robust: RobustnessReport | None = None
                 L.append(f"| {k + 1} | {e.objective:.3g} | {'yes' if e.meets else 'no'} | "
                          f"{worst:.2f} |")
             L.append("")
+    if simulation_error:
+        L += ["## Predicted sequence (device simulation)", "", simulation_error, ""]
     if sequence:
         L += ["## Predicted sequence (device simulation)", "",
               f"Order by Pc: {' → '.join(sequence['order'])}.", ""]
