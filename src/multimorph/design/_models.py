@@ -43,7 +43,7 @@ def batched(cell_model: CellModel) -> BatchModel:
     return fn
 
 
-def _rom_fast(rom: Any) -> BatchModel | None:
+def _rom_fast(rom: Any, vectorise: bool | None = None) -> BatchModel | None:
     """Batched ROM with the path measures of the whole batch in one padded call.
 
     ``rom.solve_batch`` traces all designs at once; the per-point measures (volume, peak
@@ -80,7 +80,7 @@ def _rom_fast(rom: Any) -> BatchModel | None:
         for (wall, bottom), idx in groups.items():
             try:
                 batch = rom.CellBatch.from_cells([cells[i] for i in idx])
-                rb = rom.solve_batch(batch, p_max)
+                rb = rom.solve_batch(batch, p_max, vectorise=vectorise)
                 opts = rb.options
                 free = list(opts.free)
                 theta = batch.theta()
@@ -126,11 +126,12 @@ def rom_batch_model(vectorised: bool = False) -> BatchModel:
     Parameters
     ----------
     vectorised : bool
-        ``True``: one vmapped, jitted trace per batch (``rom.solve_batch``, measures in one
-        padded call). ``False`` (default): the single-design ``rom.solve_cell`` in a loop.
-        Measured on this 2-core machine (loaded by other jobs, 20:40 UTC): 24 designs took
-        94 s vectorised vs ~0.14 s per design in the loop, so the loop is the default until
-        the batched tracer is faster; both give the same responses. The loop traces each
+        ``True``: one vmapped, jitted trace per batch (``rom.solve_batch(vectorise=True)``,
+        measures in one padded call). ``False`` (default): single-design traces in a loop.
+        On this 2-core CPU machine a derivative evaluation costs as much per design inside
+        a vmapped batch as alone, so the loop is as fast or faster (40 vs 29 curves/s,
+        ``benchmarks/bench_rom.py``, 2026-11-22); vectorise on a GPU. Both give the same
+        responses. The loop traces each
         design as a batch of one with its path measures padded to the full path length, so
         it compiles once (``rom.solve_cell`` evaluates the measures on the path's own
         length, which recompiles for every new number of path points).
@@ -145,7 +146,7 @@ def rom_batch_model(vectorised: bool = False) -> BatchModel:
     except ImportError as exc:  # pragma: no cover - depends on the ROM's state
         raise MultimorphError(f"the reduced cell model multimorph.rom cannot be imported "
                               f"({exc}); the designer needs it (issue 3)") from None
-    fast = _rom_fast(rom)
+    fast = _rom_fast(rom, vectorise=True if vectorised else None)
     if fast is not None and not vectorised:
         # one design per traced batch: a single compiled shape (1 design, padded path)
         return batched(lambda cell, p_max: _raise(fast([cell], p_max)[0]))
