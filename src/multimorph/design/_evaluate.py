@@ -10,7 +10,9 @@ For each stage (module) of a candidate, from its cell :class:`~multimorph.respon
 Distances are relative errors divided by the tolerance (|e| ≤ 1 meets the target).
 Constraint violations (stage order, separation, safety factor, device length) are relative
 amounts (> 0 violated). The objective is Σ e² + Σ (4 v / tol)² (+ 100 per stage whose Pc
-or Ph the model does not reach below the maximum pressure).
+or Ph the model does not reach below the maximum pressure; + 10⁶ per stage whose cell the
+model could not trace at all, so that such a design, about which nothing is known, ranks
+below every traced one).
 """
 
 from __future__ import annotations
@@ -34,9 +36,12 @@ from multimorph.design._target import TargetSpec
 from multimorph.device import Device, Module, module_strains
 from multimorph.response import Response
 
-__all__ = ["MISSING_PENALTY", "Evaluation", "StageResult", "evaluate_candidates", "evaluate_one"]
+__all__ = ["FAILED_PENALTY", "MISSING_PENALTY", "Evaluation", "StageResult",
+           "evaluate_candidates", "evaluate_one"]
 
 MISSING_PENALTY = 100.0
+#: Objective added per stage whose cell model failed (no response at all).
+FAILED_PENALTY = 1.0e6
 
 
 @dataclass(frozen=True)
@@ -121,6 +126,7 @@ def evaluate_one(target: TargetSpec, cand: Candidate, resps: Sequence[Any],
     dist: dict[str, float] = {}
     viol: dict[str, float] = {}
     missing = 0.0
+    failed = 0
     n_cells: list[int] = []
     problems: list[str] = []
     for i, st in enumerate(target.stages):
@@ -128,6 +134,7 @@ def evaluate_one(target: TargetSpec, cand: Candidate, resps: Sequence[Any],
         cell = cand.cells[i]
         if not isinstance(r, Response):
             missing += 2.0
+            failed += 1
             problems.append(f"{st.name}: model failed ({r})")
             n_fail = int(fixed_cells[i]) if fixed_cells is not None else 1
             stages.append(StageResult(st.name, st.kind, None, None, 0.0, n_fail, None, None,
@@ -190,7 +197,7 @@ def evaluate_one(target: TargetSpec, cand: Candidate, resps: Sequence[Any],
         missing += 1.0
     f = float(sum(e * e for e in dist.values()))
     f += float(sum((4.0 * max(v, 0.0) / tol.pressure) ** 2 for v in viol.values()))
-    f += MISSING_PENALTY * missing
+    f += MISSING_PENALTY * missing + FAILED_PENALTY * failed
     if not math.isfinite(f):
         f = 1e12
     meets = (missing == 0 and all(abs(e) <= 1.0 for e in dist.values())
