@@ -115,3 +115,24 @@ def test_decoded_cells_respect_bounds():
             if st.kind == "stretch":
                 assert cell.top_wall == cell.bottom_wall
                 assert cell.material == cell.bottom_material
+
+
+def test_failed_model_ranks_below_every_traced_design():
+    """A stage whose cell model failed (no response) must rank below any traced design,
+    however poor: nothing is known about it."""
+    from multimorph.design._evaluate import FAILED_PENALTY, evaluate_one
+    from multimorph.errors import MultimorphError
+
+    t = load("target_gripper.toml")
+    space = SearchSpace(t)
+    rng = np.random.default_rng(7)
+    traced, failed = [], []
+    for x in rng.uniform(size=(12, space.dim)):
+        cand = space.decode(x)
+        resps = [standin_cell(c, t.constraints.max_pressure) for c in cand.cells]
+        traced.append(evaluate_one(t, cand, resps))
+        resps[1] = MultimorphError("cell ROM: ran out of steps before p_max")
+        failed.append(evaluate_one(t, cand, resps))
+    assert max(e.objective for e in traced) < min(e.objective for e in failed)
+    assert all(e.objective >= FAILED_PENALTY and not e.meets for e in failed)
+    assert all("model failed" in e.message for e in failed)
