@@ -217,6 +217,7 @@ def _merge(a: PathRun, b: PathRun) -> PathRun:
     a.cutbacks += b.cutbacks
     a.newton_iterations += b.newton_iterations
     a.wall_time += b.wall_time
+    a.tangents_reused += b.tangents_reused
     a.status, a.message = b.status, b.message
     return a
 
@@ -256,21 +257,24 @@ def simulate_cell(geometry: CellGeometry, settings: FESettings | None = None, *,
     max_stretch = s.max_stretch if s.max_stretch is not None else geometry.material.break_stretch
     rec = _Recorder(mesh, problem, L, mu, p_max, s.max_volume_ratio, max_stretch, progress,
                     s.stop_after_limit)
-    pe = p_max / mu
-    run = PathRun()
-    if s.method in ("auto", "pressure"):
-        run = pressure_control(problem, pe, solver, dp0=pe / 20, dp_min=pe / 400,
-                               dp_max=pe / 8, tol=s.tol, max_steps=s.max_steps,
-                               maxiter=8, max_cutbacks=3 if s.method == "auto" else None,
-                               on_point=rec.add)
-    if s.method == "arc-length" or (s.method == "auto" and run.status == "stalled"):
-        p_start = run.points[-1].pressure if run.points else 0.0
-        if run.points:
-            problem.set_x(run.points[-1].x)
-        more = continuation(problem, p_start, solver, dx_max=s.dx_max, dp_max=s.dp_max,
-                            max_steps=max(s.max_steps - len(run.points), 1),
-                            on_point=rec.add)
-        run = _merge(run, more)
+    try:
+        pe = p_max / mu
+        run = PathRun()
+        if s.method in ("auto", "pressure"):
+            run = pressure_control(problem, pe, solver, dp0=pe / 20, dp_min=pe / 400,
+                                   dp_max=pe / 8, tol=s.tol, max_steps=s.max_steps,
+                                   maxiter=8, max_cutbacks=3 if s.method == "auto" else None,
+                                   on_point=rec.add)
+        if s.method == "arc-length" or (s.method == "auto" and run.status == "stalled"):
+            p_start = run.points[-1].pressure if run.points else 0.0
+            if run.points:
+                problem.set_x(run.points[-1].x)
+            more = continuation(problem, p_start, solver, dx_max=s.dx_max, dp_max=s.dp_max,
+                                max_steps=max(s.max_steps - len(run.points), 1),
+                                on_point=rec.add)
+            run = _merge(run, more)
+    finally:
+        solver.release()
     if len(rec.rows) < 2:
         raise MultimorphError(f"FE analysis found no equilibrium beyond P = 0: {run.message}")
     path = rec.path()
@@ -280,6 +284,8 @@ def simulate_cell(geometry: CellGeometry, settings: FESettings | None = None, *,
         "cutbacks": run.cutbacks, "newton_iterations": run.newton_iterations,
         "status": run.status, "message": run.message, "stop_reason": rec.stop_reason,
         "solver": solver.name, "solve_time": solver.time, "solves": solver.calls,
+        "analyses": solver.analyses, "factorisations": solver.factorisations,
+        "tangents_reused": run.tangents_reused,
         "assembly_time": problem.stats.time, "wall_time": time.perf_counter() - t0,
         "settings": {k: (v if not isinstance(v, MeshDensity) else asdict(v))
                      for k, v in asdict(s).items()},

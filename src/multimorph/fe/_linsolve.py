@@ -1,7 +1,13 @@
 """Sparse linear solvers for symmetric FE tangents: PARDISO (MKL) or SuperLU.
 
 PARDISO runs in real symmetric-indefinite mode (``mtype=-2``) on the upper triangle; it was
-the fastest solver on this 2-core machine (fe-notes §3). It is an optional extra
+the fastest solver on this 2-core machine (fe-notes §3). The tangent's sparsity pattern does
+not change along a path, so the symbolic analysis (fill-reducing ordering, about half the
+cost of a solve at 10k DOF) is done once per pattern and kept: later solves only refactorise
+numerically (PARDISO phase 23) while the pattern stays the same, and a matrix equal to the
+last one factorised (contique restarts every cycle of a step from the same converged point,
+so the same tangent comes back several times) is not factorised again at all: only the
+triangular solves run (phase 33; SuperLU: the kept LU factors). It is an optional extra
 (``multimorph[fast]``); without it SuperLU is used. Either way a matrix or right-hand side
 with NaN/inf entries is refused *before* the factorisation: MKL crashed (segfault) on such a
 matrix in a trial (a Newton trial state beyond Gent's lock-up), so a failed iterate becomes a
@@ -65,13 +71,62 @@ class LinearSolver:
     calls: int = 0
     #: (positive, negative) eigenvalue counts of the last factorised matrix (PARDISO only)
     inertia: tuple[int, int] | None = None
+    #: symbolic analyses done (PARDISO; one per distinct sparsity pattern)
+    analyses: int = 0
+    #: numerical factorisations done (solves of an unchanged matrix reuse the last one)
+    factorisations: int = 0
 
     def __post_init__(self) -> None:
         self._pardiso: Any = None
+        self._pattern: tuple[np.ndarray, np.ndarray] | None = None
+        self._values: np.ndarray | None = None   # entries of the matrix last factorised
+        self._lu: Any = None
         if self.name == "pardiso-sym-indef":
             import pypardiso
 
             self._pardiso = pypardiso.PyPardisoSolver(mtype=-2)
+
+    def release(self) -> None:
+        """Free PARDISO's factors and analysis (the next solve analyses again)."""
+        if self._pardiso is not None and self._pattern is not None:
+            self._pardiso.free_memory()
+        self._pattern = None
+        self._values = None
+        self._lu = None
+
+    def _same_values(self, data: np.ndarray) -> bool:
+        return self._values is not None and np.array_equal(self._values, data)
+
+    def _pardiso_solve(self, U: sp.csr_matrix, b: np.ndarray) -> np.ndarray:
+        """Solve with the upper triangle ``U``, reusing the analysis of an equal pattern."""
+        ps = self._pardiso
+        if not hasattr(ps, "_call_pardiso"):  # pypardiso without the phase interface
+            x = ps.solve(U, b)
+            ps.free_memory()
+            self.analyses += 1
+            return np.asarray(x)
+        b = ps._check_b(U, b)
+        pat = self._pattern
+        if pat is not None and np.array_equal(pat[0], U.indptr) and np.array_equal(
+                pat[1], U.indices):
+            if self._same_values(U.data):
+                ps.set_phase(33)                       # solve with the kept factors
+            else:
+                ps.set_phase(23)                       # numerical factorisation + solve
+                self._values = U.data.copy()
+                self.factorisations += 1
+        else:
+            self.release()
+            ps.set_phase(13)                           # analysis + factorisation + solve
+            self._pattern = (U.indptr.copy(), U.indices.copy())
+            self._values = U.data.copy()
+            self.analyses += 1
+            self.factorisations += 1
+        try:
+            return np.asarray(ps._call_pardiso(U, b))
+        except Exception:
+            self.release()                             # never reuse a failed analysis
+            raise
 
     def solve(self, K: sp.spmatrix, b: np.ndarray) -> np.ndarray:
         """Solve; raises :class:`NonFiniteSystemError` for non-finite input."""
@@ -84,12 +139,20 @@ class LinearSolver:
             if self._pardiso is not None:
                 U = sp.triu(K, format="csr")
                 U.sort_indices()
-                x = self._pardiso.solve(U, b)
+                x = self._pardiso_solve(U, b)
                 self.inertia = (int(self._pardiso.iparm[21]), int(self._pardiso.iparm[22]))
-                self._pardiso.free_memory()
             else:
-                lu = spla.splu(K.tocsc())
-                x = lu.solve(b)
+                Kc = K.tocsc()
+                pat = self._pattern
+                same = (pat is not None and self._lu is not None
+                        and np.array_equal(pat[0], Kc.indptr)
+                        and np.array_equal(pat[1], Kc.indices) and self._same_values(Kc.data))
+                if not same:
+                    self._lu = spla.splu(Kc)
+                    self._pattern = (Kc.indptr.copy(), Kc.indices.copy())
+                    self._values = Kc.data.copy()
+                    self.factorisations += 1
+                x = self._lu.solve(b)
         finally:
             self.time += time.perf_counter() - t
             self.calls += 1

@@ -103,9 +103,12 @@ def thick_sphere(ratio: float = 0.5, n_radial: int = 6, n_theta: int = 12, *,
         return la >= lam_max
 
     s = make_solver(solver)
-    run = pressure_control(prob, 0.5, s, dp0=0.1, on_point=record)
-    continuation(prob, run.points[-1].pressure, s, dx_max=0.02, dp_max=0.02,
-                 max_steps=300, on_point=record)
+    try:
+        run = pressure_control(prob, 0.5, s, dp0=0.1, on_point=record)
+        continuation(prob, run.points[-1].pressure, s, dx_max=0.02, dp_max=0.02,
+                     max_steps=300, on_point=record)
+    finally:
+        s.release()
     lam_a, p = np.array(lam), np.array(pres)
     exact = thick_sphere_exact(lam_a, ratio)
     return OracleResult(lam_a, p, exact, float(p.max()), thick_sphere_limit(ratio)[1],
@@ -161,8 +164,12 @@ def clamped_strip(thickness: float = 0.01, n_span: int = 200, n_thick: int = 2, 
 
     # a thin strip is bending-soft: its first micro-pressure already deflects it by many
     # thicknesses, so trace the path by continuation from the flat state
-    continuation(prob, 0.0, make_solver(solver), dx_max=0.02, dp_max=load * H / 10,
-                 max_steps=400, on_point=stop)
+    s = make_solver(solver)
+    try:
+        continuation(prob, 0.0, s, dx_max=0.02, dp_max=load * H / 10, max_steps=400,
+                     on_point=stop)
+    finally:
+        s.release()
     phi, p = np.array(phis), np.array(pres)
     with np.errstate(invalid="ignore", divide="ignore"):
         exact = np.where(phi > 0, clamped_strip_exact(np.maximum(phi, 1e-12)), 0.0)

@@ -1,0 +1,57 @@
+"""The sparse linear solvers of the FE room: PARDISO with a kept symbolic analysis, SuperLU,
+and the refusal of non-finite systems."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from multimorph.fe import NonFiniteSystemError, make_solver
+from multimorph.fe._linsolve import pardiso_available
+
+
+def _laplacian(n: int, shift: float) -> sp.csr_matrix:
+    """A symmetric 2D 5-point Laplacian (n² unknowns) shifted by ``shift`` on the diagonal;
+    a negative shift makes it indefinite."""
+    T = sp.diags([-1.0, 2.0, -1.0], [-1, 0, 1], shape=(n, n))
+    eye = sp.identity(n)
+    return (sp.kron(T, eye) + sp.kron(eye, T) + shift * sp.identity(n * n)).tocsr()
+
+
+needs_pardiso = pytest.mark.skipif(not pardiso_available(), reason="pypardiso not installed")
+
+
+@needs_pardiso
+def test_pardiso_reuses_its_analysis_for_an_unchanged_pattern() -> None:
+    rng = np.random.default_rng(0)
+    s = make_solver("pardiso")
+    ref = make_solver("superlu")
+    b = rng.standard_normal((400, 2))
+    # the same pattern, new values each time (as along an FE path), one of them indefinite
+    for shift in (0.5, 1.0, -0.3):
+        K = _laplacian(20, shift)
+        x = s.solve(K, b)
+        np.testing.assert_allclose(x, ref.solve(K, b), rtol=1e-9, atol=1e-12)
+    assert s.analyses == 1
+    # the inertia comes from the refactorisation, not the first analysis
+    assert s.inertia is not None and s.inertia[1] > 0
+    # a new pattern is analysed again, and solved right
+    K2 = (_laplacian(20, 1.0) + sp.diags([0.1], [5], shape=(400, 400))
+          + sp.diags([0.1], [-5], shape=(400, 400))).tocsr()
+    np.testing.assert_allclose(s.solve(K2, b), ref.solve(K2, b), rtol=1e-9, atol=1e-12)
+    assert s.analyses == 2
+    s.release()
+    np.testing.assert_allclose(s.solve(K2, b), ref.solve(K2, b), rtol=1e-9, atol=1e-12)
+    assert s.analyses == 3
+
+
+@pytest.mark.parametrize("kind", ["superlu", pytest.param("pardiso", marks=needs_pardiso)])
+def test_non_finite_systems_are_refused(kind: str) -> None:
+    s = make_solver(kind)
+    K = _laplacian(5, 1.0)
+    K.data[3] = np.nan
+    with pytest.raises(NonFiniteSystemError):
+        s.solve(K, np.ones(25))
+    with pytest.raises(NonFiniteSystemError):
+        s.solve(_laplacian(5, 1.0), np.full(25, np.inf))
