@@ -111,3 +111,28 @@ def test_failure_pressure_where_peak_stretch_reaches_break():
     assert r.characteristic.failure == pytest.approx(75e3)
     assert r.characteristic.curvature_at["failure"] == pytest.approx(75.0)
     assert len(r.loading) == len(P) and len(r.unloading) == len(P)
+
+
+def test_a_shallow_fold_on_the_plateau_is_not_the_activation():
+    # the sigmoid of the test above, traced on: past its knee the pressure dips by 3 % and
+    # recovers while κ hardly moves (as on a 3D FE cell's hardening plateau, where a
+    # secondary wall mode folds); pressure control crosses it with a jump of 0.02 % of the
+    # κ range, so Pc is still the steepest rise and Ph the knee before the fold
+    pc, width = 40e3, 8e3
+    P = np.linspace(0.0, pc + 6 * width, 400)
+    k = np.tanh((P - pc) / width) + 1.0 + 1e-3 * P / pc
+    top = P[-1]
+    s = np.linspace(0.0, 1.0, 41)[1:]
+    fold_P = top - 0.03 * top * np.sin(np.pi * s) + 0.02 * top * s
+    fold_k = k[-1] + 4e-4 * s
+    path = _path(np.concatenate([P, fold_P]), np.concatenate([k, fold_k]),
+                 stable=np.concatenate([np.ones(P.size, bool), np.cos(np.pi * s) <= 0]))
+    c = characteristic_pressures(path)
+    assert c.critical_kind == "max_slope"
+    assert c.critical == pytest.approx(pc, abs=0.01 * width)
+    assert c.hardening == pytest.approx(pc + np.arctanh(1 / np.sqrt(3)) * width,
+                                        abs=0.02 * width)
+    # the same fold with a large jump is a snap-through: then it is the activation
+    big = _path(np.concatenate([P, fold_P]), np.concatenate([k, fold_k + 2.0 * s]),
+                stable=np.concatenate([np.ones(P.size, bool), np.cos(np.pi * s) <= 0]))
+    assert characteristic_pressures(big).critical_kind == "limit_point"

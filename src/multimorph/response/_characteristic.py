@@ -3,12 +3,17 @@
 Definitions (physics-notes §6; the same for every backend):
 
 * **Pc, critical pressure.** If the path has a limit point (the first local maximum of the
-  pressure along the path, after which the pressure falls), Pc is that pressure
-  (``critical_kind = "limit_point"``). Otherwise Pc is the pressure of maximum dκ/dP on the
-  loading curve (``"max_slope"``), the inflection of κ(P) where the ballooning runs fastest.
+  pressure along the path, after which the pressure falls) whose snap matters, Pc is that
+  pressure (``critical_kind = "limit_point"``). A fold matters when the jump it causes under
+  pressure control moves κ by at least :data:`SNAP_FRACTION` of the path's κ range, or when
+  nothing stable is left to land on (runaway). Shallow folds on the hardening plateau
+  (a 3 % pressure dip that moves κ by 0.02 % on a 3D FE cell) are not the activation.
+  Otherwise Pc is the pressure of maximum dκ/dP on the loading curve (``"max_slope"``), the
+  inflection of κ(P) where the ballooning runs fastest.
   Both are refined by a parabola through the three points around the discrete extremum.
 * **Ph, hardening pressure.** The strain-hardening knee after Pc: the pressure of the most
-  negative d²κ/dP² on the loading curve above Pc (after a snap: on the branch it landed on),
+  negative d²κ/dP² on the loading curve above Pc (after a snap that matters: on the branch
+  it landed on),
   where the steep rise turns into the plateau fastest. ``None`` when the curve has no
   interior minimum of d²κ/dP² below zero after Pc (no hardening reached before the end).
 * **Failure pressure.** The first pressure on the loading curve at which the largest
@@ -25,7 +30,12 @@ import numpy as np
 from multimorph.response._observed import observed_curves
 from multimorph.response._types import CharacteristicPressures, EquilibriumPath
 
-__all__ = ["characteristic_pressures", "critical_pressure", "hardening_pressure"]
+__all__ = ["SNAP_FRACTION", "characteristic_pressures", "critical_pressure",
+           "hardening_pressure"]
+
+#: Least κ jump of a snap, as a fraction of the path's κ range, for a fold to count as the
+#: activation (and for a snap to restart the search for the hardening knee).
+SNAP_FRACTION = 0.05
 
 
 def _vertex(x: np.ndarray, y: np.ndarray, i: int) -> tuple[float, float]:
@@ -53,13 +63,29 @@ def _monotone(P: np.ndarray, k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return P[keep], k[keep]
 
 
+def _kappa_range(k: np.ndarray) -> float:
+    return float(np.max(k) - np.min(k)) if k.size else 0.0
+
+
+def _snap_matters(path: EquilibriumPath, i: int) -> bool:
+    """Whether the pressure-controlled snap from the fold at point ``i`` moves κ by at least
+    :data:`SNAP_FRACTION` of the path's κ range (True when there is nowhere to land)."""
+    P, k, st = path.pressure, path.curvature, path.stable
+    for j in range(i + 1, len(P) - 1):
+        if P[j + 1] > P[j] and st[j + 1] and P[j] <= P[i] < P[j + 1]:
+            k_land = k[j] + (P[i] - P[j]) / (P[j + 1] - P[j]) * (k[j + 1] - k[j])
+            return bool(abs(k_land - k[i]) >= SNAP_FRACTION * _kappa_range(k))
+    return True
+
+
 def _limit_point(path: EquilibriumPath) -> int | None:
     P = path.pressure
     for i in range(1, len(P) - 1):
         if P[i] >= P[i - 1] and P[i] > P[i + 1]:
             # a genuine fold: the pressure keeps falling or the state turns unstable
             if not path.stable[i + 1] or (i + 2 < len(P) and P[i + 2] < P[i]):
-                return i
+                if _snap_matters(path, i):
+                    return i
     return None
 
 
@@ -91,6 +117,9 @@ def hardening_pressure(loading: EquilibriumPath, pc: float | None,
         return None, None
     start = 0
     snaps = np.flatnonzero(loading.extra.get("snap", np.zeros(len(loading))) > 0)
+    jump = SNAP_FRACTION * _kappa_range(loading.curvature)
+    snaps = snaps[[abs(loading.curvature[j] - loading.curvature[j - 1]) >= jump
+                   for j in snaps]] if snaps.size else snaps
     if snaps.size:
         start = int(snaps[-1])
     P, k = _monotone(loading.pressure[start:], loading.curvature[start:])
