@@ -28,6 +28,9 @@ def fem(
                       ] = "auto",
     full: Annotated[bool, typer.Option("--full", help="Mesh the whole cell, not half.")
                     ] = False,
+    cells: Annotated[int, typer.Option(
+        "--cells", help="Cells in series along the axis (a bending or stretching module "
+                        "mounted at one end); 1: a single cell.")] = 1,
     vtu: Annotated[bool, typer.Option(help="Write the VTU time series for ParaView.")
                    ] = True,
     out: Annotated[Path | None, typer.Option(
@@ -37,7 +40,8 @@ def fem(
                        ] = False,
     as_json: Annotated[bool, typer.Option("--json", help="Print the JSON summary.")] = False,
 ) -> None:
-    """Inflate a cell with 3D FE: path, Pc/Ph, curves, VTU series, STEP/STL.
+    """Inflate a cell (or a module of --cells cells in series) with 3D FE: path, Pc/Ph,
+    curves, VTU series, STEP/STL.
 
     Example: multimorph fem examples/fe_cell.toml --mesh medium --pmax "60 kPa" --out out/fe
 
@@ -58,6 +62,8 @@ def fem(
         if "cell" not in table:
             raise SpecError(f"{spec}: missing [cell] table")
         geometry = CellGeometry.from_spec(table["cell"])
+        if cells < 1:
+            raise SpecError(f"--cells: expected a positive number of cells, got {cells}")
         p_max = to_si(pmax, "Pa", field="--pmax") if pmax else None
         size = to_si(element_size, "m", field="--element-size") if element_size else None
         settings = FESettings(mesh=mesh, element_size=size, half=not full, p_max=p_max,
@@ -73,7 +79,7 @@ def fem(
             def progress(p: float, n: int) -> None:
                 bar.update(task, completed=min(max(p, 0.0), p_end), p=p / 1e3, n=n)
 
-            result = simulate_cell(geometry, settings, progress=progress)
+            result = simulate_cell(geometry, settings, progress=progress, n_cells=cells)
         info = summary(result)
         comparison = None
         if compare:
@@ -99,14 +105,15 @@ def fem(
         def kpa(v: float | None) -> str:
             return "—" if v is None else f"{v / 1e3:.3g} kPa"
 
-        console.print(f"[bold]FE cell[/] {st['nfree']} DOF, {st['points']} points, "
+        what = "FE cell" if cells == 1 else f"FE module of {cells} cells"
+        console.print(f"[bold]{what}[/] {st['nfree']} DOF, {st['points']} points, "
                       f"{st['newton_iterations']} Newton iterations, {st['solver']}, "
                       f"{st['wall_time']:.1f} s ({st['stop_reason'] or st['status']})")
         console.print(f"Pc = {kpa(c.critical)} ({c.critical_kind}), Ph = {kpa(c.hardening)}, "
                       f"failure = {kpa(c.failure)}")
         fin = info["final"]
         console.print(f"at {fin['pressure_pa'] / 1e3:.3g} kPa: κd = "
-                      f"{fin['curvature_1_per_m'] * geometry.length:.3f}, bend "
+                      f"{fin['curvature_1_per_m'] * geometry.length:.3f} per cell, bend "
                       f"{fin['bend_angle_deg']:.1f}°, V/V0 = {fin['volume_ratio']:.2f}, "
                       f"peak stretch {fin['peak_stretch']:.2f}")
         if comparison is not None:

@@ -142,7 +142,7 @@ class _Recorder:
         self.max_stretch = max_stretch
         self.progress = progress
         g = mesh.geometry
-        self.V0 = g.wc * g.hc * g.dc
+        self.V0 = g.wc * g.hc * g.dc * mesh.n_cells
         self.rows: list[dict[str, Any]] = []
         self.u: list[np.ndarray] = []
         self.cell_stretch: list[np.ndarray] = []
@@ -159,6 +159,11 @@ class _Recorder:
         bend, twist = bend_and_twist(m.points[m.end_face], x[m.end_face])
         if m.half:
             twist = 0.0  # zero by the mirror symmetry (a half section's fit is not)
+        if self.rows:
+            # continuous along the path: a module may bend or twist past ±180°
+            turn = 2.0 * math.pi
+            bend += turn * round((self.rows[-1]["bend_angle"] - bend) / turn)
+            twist += turn * round((self.rows[-1]["twist_angle"] - twist) / turn)
         vol = chamber_volume(x, m.chamber_faces, mirror_x=g.width / 2 if m.half else None)
         F = self.problem.deformation_gradient()
         lam, _, cell = peak_stretch(F)
@@ -167,7 +172,7 @@ class _Recorder:
         loc = m.points[m.cells[cell]].mean(axis=0)
         self.rows.append({
             "pressure": pt.pressure * self.mu, "curvature": kappa,
-            "twist_rate": twist / g.length,
+            "twist_rate": twist / m.length,
             "axial_stretch": line_stretch(m.points[line], x[line]),
             "volume": vol, "peak_stretch": lam,
             "stable": bool(pt.stable) if pt.stable is not None else True,
@@ -223,8 +228,10 @@ def _merge(a: PathRun, b: PathRun) -> PathRun:
 
 
 def simulate_cell(geometry: CellGeometry, settings: FESettings | None = None, *,
-                  progress: Callable[[float, int], None] | None = None) -> FEResult:
-    """Inflate a unit cell with FE and measure it like the reference paper.
+                  progress: Callable[[float, int], None] | None = None,
+                  n_cells: int = 1) -> FEResult:
+    """Inflate a unit cell (or a module of cells in series) with FE and measure it like the
+    reference paper.
 
     Parameters
     ----------
@@ -232,6 +239,10 @@ def simulate_cell(geometry: CellGeometry, settings: FESettings | None = None, *,
     settings : FESettings, optional
     progress : callable, optional
         ``progress(pressure_Pa, n_points)`` after every converged point.
+    n_cells : int
+        Cells in series along the axis (a bending or stretching module, mounted at y = 0):
+        the curvature is then the circle fit of the bottom edge over the whole module, the
+        volume that of all chambers, and the response's length ``n_cells · d``.
 
     Returns
     -------
@@ -250,7 +261,8 @@ def simulate_cell(geometry: CellGeometry, settings: FESettings | None = None, *,
     """
     s = settings or FESettings()
     t0 = time.perf_counter()
-    mesh = cell_mesh(geometry, s.mesh, element_size=s.element_size, half=s.half)
+    mesh = cell_mesh(geometry, s.mesh, element_size=s.element_size, half=s.half,
+                     n_cells=n_cells)
     problem, L, mu = build_cell_problem(mesh)
     solver = make_solver(s.solver)
     p_max = s.p_max if s.p_max is not None else mu
@@ -279,7 +291,8 @@ def simulate_cell(geometry: CellGeometry, settings: FESettings | None = None, *,
         raise MultimorphError(f"FE analysis found no equilibrium beyond P = 0: {run.message}")
     path = rec.path()
     stats = {
-        "backend": "fe", "ndof": int(mesh.ndof), "nfree": int(problem.nfree),
+        "backend": "fe", "n_cells": int(mesh.n_cells), "ndof": int(mesh.ndof),
+        "nfree": int(problem.nfree),
         "ncells": int(mesh.ncells), "points": len(rec.rows) - 1, "attempts": run.attempts,
         "cutbacks": run.cutbacks, "newton_iterations": run.newton_iterations,
         "status": run.status, "message": run.message, "stop_reason": rec.stop_reason,
@@ -290,7 +303,7 @@ def simulate_cell(geometry: CellGeometry, settings: FESettings | None = None, *,
         "settings": {k: (v if not isinstance(v, MeshDensity) else asdict(v))
                      for k, v in asdict(s).items()},
     }
-    resp = build_response(path, length=geometry.length, shear_modulus=mu, backend="fe",
+    resp = build_response(path, length=mesh.length, shear_modulus=mu, backend="fe",
                           break_stretch=geometry.material.break_stretch, meta=stats)
     return FEResult(response=resp, mesh=mesh, displacements=np.array(rec.u),
                     stretch=np.array(rec.cell_stretch), stats=stats)

@@ -100,10 +100,12 @@ class CellMesh:
         circle fit gives the bending curvature (the bottom-centre line x = w/2 would also
         carry the local downward bulge of the chamber floor).
     end_face : ndarray (i,)
-        Nodes of the free end face y = d.
+        Nodes of the free end face y = n_cells · d.
     half : bool
         Whether only x ≤ w/2 is meshed.
     geometry : CellGeometry
+    n_cells : int
+        Cells in series along y (the meshed length is ``n_cells · d``).
     """
 
     points: np.ndarray
@@ -118,6 +120,12 @@ class CellMesh:
     half: bool
     geometry: CellGeometry
     density: MeshDensity = field(default_factory=MeshDensity)
+    n_cells: int = 1
+
+    @property
+    def length(self) -> float:
+        """Meshed length along y (m): ``n_cells · d``."""
+        return self.n_cells * self.geometry.length
 
     @property
     def ndof(self) -> int:
@@ -146,8 +154,9 @@ _HEX_FACES = np.array([[0, 3, 2, 1], [4, 5, 6, 7], [0, 1, 5, 4],
 
 
 def cell_mesh(geometry: CellGeometry, mesh: str | MeshDensity = "coarse", *,
-              element_size: float | None = None, half: bool = True) -> CellMesh:
-    """Mesh a unit cell with hexahedra.
+              element_size: float | None = None, half: bool = True, n_cells: int = 1,
+              ) -> CellMesh:
+    """Mesh a unit cell, or ``n_cells`` of them in series (a module), with hexahedra.
 
     Parameters
     ----------
@@ -158,6 +167,10 @@ def cell_mesh(geometry: CellGeometry, mesh: str | MeshDensity = "coarse", *,
         Explicit target edge length (m); overrides the preset's length.
     half : bool
         Mesh only x ≤ w/2 (the cell is mirror-symmetric about x = w/2).
+    n_cells : int
+        Cells in series along y (a bending or stretching module of length n·d): cell k
+        occupies [k d, (k + 1) d], so neighbouring end walls merge into one solid partition
+        2 df thick, and every chamber is on the same pressure line.
 
     Returns
     -------
@@ -172,18 +185,24 @@ def cell_mesh(geometry: CellGeometry, mesh: str | MeshDensity = "coarse", *,
     >>> m.ncells, m.ndof
     (288, 1476)
     """
+    if isinstance(n_cells, bool) or not isinstance(n_cells, int) or n_cells < 1:
+        raise SpecError(f"n_cells: expected a positive integer, got {n_cells!r}")
     dens = resolve_density(mesh, element_size)
     g = geometry
     h = dens.edge(g)
     n = dens.wall_elements
     w, d, H = g.width, g.length, g.height
+    L = n_cells * d
     if half:
         xs = _axis([0.0, g.ws, w / 2], h, n, {0})
     else:
         xc = _axis([g.ws, w / 2], h, n, set())
         xs = np.concatenate([_axis([0.0, g.ws], h, n, {0}), xc[1:],
                              (w - xc[::-1])[1:], (w - _axis([0.0, g.ws], h, n, {0})[::-1])[1:]])
-    ys = _axis([0.0, g.df, d - g.df, d], h, n, {0, 2})
+    ybreaks = [0.0]
+    for k in range(n_cells):
+        ybreaks += [k * d + g.df, (k + 1) * d - g.df, (k + 1) * d]
+    ys = _axis(ybreaks, h, n, {i for i in range(len(ybreaks) - 1) if i % 3 != 1})
     zs = _axis([0.0, g.hb, g.hb + g.hc, H], h, n, {0, 2})
 
     X, Y, Z = np.meshgrid(xs, ys, zs, indexing="ij")
@@ -198,9 +217,10 @@ def cell_mesh(geometry: CellGeometry, mesh: str | MeshDensity = "coarse", *,
 
     cen = pts[cells].mean(axis=1)
     x0, x1 = g.ws, w - g.ws
-    y0, y1 = g.df, d - g.df
     z0, z1 = g.hb, g.hb + g.hc
-    inside = ((cen[:, 0] > x0) & (cen[:, 0] < x1) & (cen[:, 1] > y0) & (cen[:, 1] < y1)
+    # position within its own cell: chambers at [df, d − df] of every cell
+    yl = np.mod(cen[:, 1], d)
+    inside = ((cen[:, 0] > x0) & (cen[:, 0] < x1) & (yl > g.df) & (yl < d - g.df)
               & (cen[:, 2] > z0) & (cen[:, 2] < z1))
     cells = cells[~inside]
     cen = cen[~inside]
@@ -211,13 +231,17 @@ def cell_mesh(geometry: CellGeometry, mesh: str | MeshDensity = "coarse", *,
     cells = renum[cells]
     region = np.where(cen[:, 2] < g.hb, BOTTOM, WALL).astype(np.int8)
 
-    tol = 1e-9 * max(w, d, H)
+    tol = 1e-9 * max(w, L, H)
     px, py, pz = pts.T
-    in_box = ((px > x0 - tol) & (px < x1 + tol) & (py > y0 - tol) & (py < y1 + tol)
-              & (pz > z0 - tol) & (pz < z1 + tol))
-    on_plane = ((np.abs(px - x0) < tol) | (np.abs(px - x1) < tol) | (np.abs(py - y0) < tol)
-                | (np.abs(py - y1) < tol) | (np.abs(pz - z0) < tol) | (np.abs(pz - z1) < tol))
-    chamber_points = in_box & on_plane
+    chamber_points = np.zeros(len(pts), dtype=bool)
+    for k in range(n_cells):
+        y0, y1 = k * d + g.df, (k + 1) * d - g.df
+        in_box = ((px > x0 - tol) & (px < x1 + tol) & (py > y0 - tol) & (py < y1 + tol)
+                  & (pz > z0 - tol) & (pz < z1 + tol))
+        on_plane = ((np.abs(px - x0) < tol) | (np.abs(px - x1) < tol)
+                    | (np.abs(py - y0) < tol) | (np.abs(py - y1) < tol)
+                    | (np.abs(pz - z0) < tol) | (np.abs(pz - z1) < tol))
+        chamber_points |= in_box & on_plane
 
     faces = cells[:, _HEX_FACES].reshape(-1, 4)
     key = np.sort(faces, axis=1)
@@ -233,9 +257,10 @@ def cell_mesh(geometry: CellGeometry, mesh: str | MeshDensity = "coarse", *,
     mirror = (np.abs(px - w / 2) < tol) if half else np.zeros(len(pts), dtype=bool)
     line = np.flatnonzero((np.abs(px) < tol) & (np.abs(pz) < tol))
     line = line[np.argsort(py[line])]
-    end_face = np.flatnonzero(np.abs(py - d) < tol)
+    end_face = np.flatnonzero(np.abs(py - L) < tol)
     if len(line) < 3:
         raise SpecError("mesh: the bottom edge line has fewer than 3 nodes")
     return CellMesh(points=pts, cells=cells, region=region, chamber_points=chamber_points,
                     chamber_faces=ch, clamped=clamped, mirror=mirror, bend_line=line,
-                    end_face=end_face, half=half, geometry=g, density=dens)
+                    end_face=end_face, half=half, geometry=g, density=dens,
+                    n_cells=n_cells)

@@ -49,12 +49,14 @@ def summary(result: FEResult) -> dict[str, Any]:
             "curvature_1_per_m": float(p.curvature[-1]),
             "bend_angle_deg": float(np.degrees(p.extra["bend_angle"][-1])),
             "volume_ratio": float(p.extra["volume_ratio"][-1]),
+            "axial_stretch": float(p.axial_stretch[-1]),
             "peak_stretch": float(p.peak_stretch[-1]),
             "peak_location_m": [float(v) for v in p.extra["peak_location"][-1]],
         },
         "max_pressure_pa": float(np.max(p.pressure)),
         "unstable_points": int(np.sum(~p.stable)),
         "length_m": r.length,
+        "cells": int(result.mesh.n_cells),
         "shear_modulus_pa": r.shear_modulus,
         "stats": result.stats,
     }
@@ -179,8 +181,9 @@ def _quiet_stdout() -> Iterator[None]:
         os.close(saved)
 
 
-def export_cell_solid(geometry: CellGeometry, path: Path) -> None:
-    """Write the cell solid (box minus chamber) as STEP or STL (by suffix) with gmsh OCC."""
+def export_cell_solid(geometry: CellGeometry, path: Path, n_cells: int = 1) -> None:
+    """Write the cell solid (box minus chamber), or ``n_cells`` of them in series, as STEP or
+    STL (by suffix) with gmsh OCC."""
     gmsh = require("gmsh")
     g = geometry
     initialised = gmsh.isInitialized()
@@ -191,9 +194,10 @@ def export_cell_solid(geometry: CellGeometry, path: Path) -> None:
         gmsh.model.add("cell")
         occ = gmsh.model.occ
         s = 1e3  # CAD in mm
-        outer = occ.addBox(0, 0, 0, g.width * s, g.length * s, g.height * s)
-        inner = occ.addBox(g.ws * s, g.df * s, g.hb * s, g.wc * s, g.dc * s, g.hc * s)
-        occ.cut([(3, outer)], [(3, inner)])
+        outer = occ.addBox(0, 0, 0, g.width * s, n_cells * g.length * s, g.height * s)
+        inner = [occ.addBox(g.ws * s, (k * g.length + g.df) * s, g.hb * s, g.wc * s,
+                            g.dc * s, g.hc * s) for k in range(n_cells)]
+        occ.cut([(3, outer)], [(3, t) for t in inner])
         occ.synchronize()
         if Path(path).suffix.lower() == ".stl":
             gmsh.option.setNumber("Mesh.MeshSizeMax", min(g.ht, g.ws, g.df, g.hb) * s)
@@ -221,7 +225,8 @@ def write_fe_outputs(result: FEResult, folder: Path, *, vtu: bool = True, plots:
     if vtu:
         files += write_vtu_series(result, folder)
     if cad:
-        export_cell_solid(result.mesh.geometry, folder / "cell.step")
-        export_cell_solid(result.mesh.geometry, folder / "cell.stl")
+        n = result.mesh.n_cells
+        export_cell_solid(result.mesh.geometry, folder / "cell.step", n)
+        export_cell_solid(result.mesh.geometry, folder / "cell.stl", n)
         files += ["cell.step", "cell.stl"]
     return files
