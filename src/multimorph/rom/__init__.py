@@ -4,6 +4,8 @@
   :class:`~multimorph.response.Response`);
 * :func:`solve_cells` — the same model over thousands of designs at once (``vmap``), a
   :class:`CellBatch` in, a :class:`ResponseBatch` out;
+* :func:`path_sensitivity` — how every point of a traced path moves with the cell's lengths
+  (implicit function theorem; :func:`characteristic_sensitivity` for Pc and Ph);
 * :func:`trace_path` — pseudo-arc-length continuation of any energy Π(q, p) (used by the cell
   model, and by the tests on the Gent sphere and tube).
 
@@ -20,6 +22,12 @@ from multimorph.rom._continuation import (
     trace_path,
 )
 from multimorph.rom._model import DEFAULT_SETTINGS, cell_theta, solve_cell
+from multimorph.rom._sensitivity import (
+    LENGTHS,
+    PathSensitivity,
+    characteristic_sensitivity,
+    path_sensitivity,
+)
 
 #: Alias used by the device, sweep, design and FE-comparison rooms.
 simulate_cell = solve_cell
@@ -27,15 +35,19 @@ simulate_cell = solve_cell
 __all__ = [
     "COORDINATES",
     "DEFAULT_SETTINGS",
+    "LENGTHS",
     "CellBatch",
     "ContinuationError",
+    "PathSensitivity",
     "RawPath",
     "ResponseBatch",
     "RomOptions",
     "TracerSettings",
     "cell_kernel",
     "cell_theta",
+    "characteristic_sensitivity",
     "make_tracer",
+    "path_sensitivity",
     "simulate_cell",
     "simulate_cells",
     "solve_batch",
