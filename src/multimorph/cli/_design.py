@@ -44,6 +44,9 @@ def design_command(
     vectorised: Annotated[bool, typer.Option(
         "--vectorised", help="Trace each batch with the vmapped ROM (default: a loop of "
         "single-design traces, faster on small CPUs today).")] = False,
+    gradient: Annotated[bool, typer.Option(
+        "--gradient/--no-gradient", help="Refine the best global design with IFT gradients "
+        "through the traced equilibrium paths before the compass search.")] = True,
     as_json: Annotated[bool, typer.Option("--json", help="Print the JSON report.")] = False,
 ) -> None:
     """Design a device whose predicted sequence of motions meets a target.
@@ -86,7 +89,7 @@ def design_command(
                 raise MultimorphError(f"--verify-fe: {why}")
         settings = DesignSettings(budget=budget, population=population, seed=seed,
                                   robust_samples=(16 if robust else 0), wall_tolerance=tol,
-                                  default_cv=default_cv)
+                                  default_cv=default_cv, gradient=gradient)
         from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
 
         with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),

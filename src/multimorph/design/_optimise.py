@@ -1,14 +1,17 @@
 """The optimiser: reachability check, differential evolution over the batched cell model,
-then a local pattern-search refinement; ranked designs and, when the target cannot be met,
-an explanation of the binding constraints.
+then gradient and pattern-search refinement; ranked designs and, when the target cannot be
+met, an explanation of the binding constraints.
 
 Global stage: differential evolution (DE/rand/1/bin with dithered F), the whole population
-evaluated as one batch of cells (one model call per generation). Local stage: a
-derivative-free compass (pattern) search around the best design on its continuous variables
-(material choices held), all 2·n probes of a step evaluated as one batch. The reduced
-model's characteristic pressures Pc and Ph come from a traced path (a maximum of dκ/dP and a
-knee), which are not smooth functions of an equilibrium alone, so the refinement does not
-use implicit-function gradients (see ``docs/design.md``).
+evaluated as one batch of cells (one model call per generation). Gradient stage
+(:mod:`multimorph.design._gradient`): bounded Gauss–Newton steps on the best design's
+continuous variables, with the Jacobian from implicit-function-theorem sensitivities of the
+traced equilibrium paths (:func:`multimorph.rom.path_sensitivity`) carried through the
+Pc/Ph estimators and the objective on the linearised paths — no model run and no
+differentiation through the tracer; the trial steps of one iteration are one batched call.
+Skipped for cell models without generalised coordinates. Local stage: a derivative-free
+compass (pattern) search around the result (material choices held), all 2·n probes of a
+step evaluated as one batch. See ``docs/design.md``.
 
 Everything is seeded (``numpy.random.default_rng(seed)``): the same target, settings and
 model give the same designs.
@@ -25,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from multimorph.design._evaluate import Evaluation, evaluate_candidates
+from multimorph.design._gradient import GradientStep, gradient_refine
 from multimorph.design._models import BatchModel, CountingModel, rom_batch_model
 from multimorph.design._space import N_VARS, VAR_NAMES, SearchSpace
 from multimorph.design._target import TargetSpec
@@ -59,6 +63,14 @@ class DesignSettings:
         Uncertainty model of the robust objective (see :func:`multimorph.design.robustness`).
     batch_cells : int, optional
         Cells per batched model call (one compiled shape); default population × stages.
+    gradient : bool
+        Refine the best global design by bounded Gauss–Newton steps on IFT gradients through
+        the traced equilibrium paths (before the compass search, within the refinement
+        budget). Needs a cell model with sensitivities (the reduced model); skipped
+        otherwise.
+    gradient_iterations : int
+        Gradient iterations at most (each: one Jacobian, no model call, and one batched call
+        of ``len(dampings)`` trial designs).
     """
 
     budget: int = 1200
@@ -71,6 +83,8 @@ class DesignSettings:
     wall_tolerance: float = 0.1e-3
     default_cv: float = 0.05
     batch_cells: int | None = None
+    gradient: bool = True
+    gradient_iterations: int = 12
 
     def __post_init__(self) -> None:
         if self.population < 4:
@@ -79,6 +93,9 @@ class DesignSettings:
             raise SpecError(f"budget must be positive, got {self.budget}")
         if not 0 <= self.refine_fraction < 1:
             raise SpecError(f"refine_fraction must lie in [0, 1), got {self.refine_fraction}")
+        if self.gradient_iterations < 0:
+            raise SpecError(f"gradient_iterations must be non-negative, got "
+                            f"{self.gradient_iterations}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -99,6 +116,8 @@ class DesignResult:
         Cell-model evaluations used.
     history : list of float
         Best objective after each model call.
+    gradient_steps : tuple of GradientStep
+        Log of the gradient refinement (empty when skipped).
     """
 
     target: TargetSpec
@@ -112,6 +131,7 @@ class DesignResult:
     history: list[float]
     wall_time: float
     robust_scores: dict[int, float] = field(default_factory=dict)
+    gradient_steps: tuple[GradientStep, ...] = ()
 
     @property
     def best(self) -> Evaluation | None:
@@ -129,6 +149,9 @@ class DesignResult:
             "seed": self.settings.seed,
             "budget": self.settings.budget,
             "designs": [d.to_dict() for d in self.designs],
+            "gradient": [{"objective_before": g.objective_before,
+                          "objective_after": g.objective_after, "trials": g.trials}
+                         for g in self.gradient_steps],
         }
 
 
@@ -356,10 +379,20 @@ def design(target: TargetSpec, *, model: BatchModel | None = None,
         X[better], f[better] = U[better], ft[better]
         evs = [tevs[k] if better[k] else evs[k] for k in range(n)]
 
-    # local stage: compass search on the continuous variables of the best design
-    cont = [i * N_VARS + j for i in range(S) for j in (0, 1, 2, 3, 4, 5, 6, 9)]
+    # gradient stage: Gauss-Newton on IFT gradients through the traced paths
     kb = int(np.argmin(f))
     xb, fb = X[kb].copy(), float(f[kb])
+    steps: list[GradientStep] = []
+    if s.gradient and s.gradient_iterations > 0:
+        gbest, steps = gradient_refine(
+            space, evs[kb], lambda Xg: run(Xg, "gradient"),
+            lambda k: counted.evaluations + k * S <= s.budget,
+            max_iter=s.gradient_iterations)
+        if gbest.objective < fb:
+            xb, fb = np.asarray(gbest.candidate.x, float).copy(), float(gbest.objective)
+
+    # local stage: compass search on the continuous variables of the best design
+    cont = [i * N_VARS + j for i in range(S) for j in (0, 1, 2, 3, 4, 5, 6, 9)]
     step = 0.08
     while step > 2e-3 and counted.evaluations + 2 * len(cont) * S <= s.budget:
         P = np.repeat(xb[None, :], 2 * len(cont), axis=0)
@@ -405,4 +438,5 @@ def design(target: TargetSpec, *, model: BatchModel | None = None,
     feasible = bool(best.meets)
     explanation = [] if feasible else _explain(space, best)
     return DesignResult(target, s, feasible, top, explanation, reach, counted.evaluations,
-                        counted.calls, history, time.perf_counter() - t0, robust_scores)
+                        counted.calls, history, time.perf_counter() - t0, robust_scores,
+                        tuple(steps))
