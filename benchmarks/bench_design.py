@@ -8,9 +8,11 @@ Run from the repository root (prints a table; ``--json`` for machines)::
 Rows:
 
 - ``warm-up``: one batched call of the reduced model at the optimiser's batch shape (JIT
-  compilation of the vmapped path tracer; paid once per process, and per batch shape);
-- ``design``: the whole search (reachability check, differential evolution, local
-  refinement) after the warm-up, with the number of cell-model evaluations and batched calls;
+  compilation of the vmapped path tracer; paid once per process, and per batch shape), and
+  one path sensitivity of each stage's cell (JIT of the IFT kernel of the gradient stage);
+- ``design``: the whole search (reachability check, differential evolution, gradient
+  refinement, compass search) after the warm-up, with the number of cell-model evaluations
+  and batched calls, and the time spent in each phase;
 - ``robustness``: the Monte Carlo of the best design (``--samples`` samples).
 
 The target of issue 6 is a two-stage design in under 60 s on this 2-core machine; the
@@ -64,12 +66,29 @@ def main(argv: list[str] | None = None) -> int:
     model = CountingModel(rom_batch_model(args.vectorised),
                           pad_to=settings.population * space.n_stages)
     t0 = time.perf_counter()
-    evaluate_population(space, np.random.default_rng(0).random((settings.population,
-                                                                space.dim)), model)
+    warm = evaluate_population(space, np.random.default_rng(0).random((settings.population,
+                                                                       space.dim)), model)
+    if settings.gradient:
+        from multimorph.response import Response
+        from multimorph.rom import path_sensitivity
+
+        for ev in warm:
+            if all(isinstance(r, Response) for r in ev.responses):
+                for cell, r in zip(ev.candidate.cells, ev.responses, strict=True):
+                    path_sensitivity(cell, r.path)
+                break
     t_warm = time.perf_counter() - t0
 
-    t0 = time.perf_counter()
-    result = design(target, model=model, settings=settings)
+    phases: dict[str, float] = {}
+    clock = [time.perf_counter()]
+
+    def progress(done: int, budget: int, phase: str) -> None:
+        now = time.perf_counter()
+        phases[phase] = phases.get(phase, 0.0) + now - clock[0]
+        clock[0] = now
+
+    t0 = clock[0] = time.perf_counter()
+    result = design(target, model=model, settings=settings, progress=progress)
     t_design = time.perf_counter() - t0
 
     t_rob = None
@@ -89,6 +108,8 @@ def main(argv: list[str] | None = None) -> int:
         "model_calls": result.model_calls,
         "evaluations_per_s": result.evaluations / t_design if t_design > 0 else None,
         "feasible": result.feasible,
+        "objective": None if result.best is None else result.best.objective,
+        "phases_s": phases,
         "robustness_s": t_rob,
         "robustness_samples": args.samples,
         "p_order": None if rob is None else rob.p_order,
@@ -101,6 +122,8 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{'design':<12} {t_design:9.1f}s  {result.evaluations} cell evaluations in "
           f"{result.model_calls} batched calls ({row['evaluations_per_s']:.0f}/s); "
           f"feasible = {result.feasible}")
+    print(f"{'':<12} {'':>10}  phases: " + ", ".join(f"{k} {v:.1f}s" for k, v in phases.items())
+          + (f"; best objective {row['objective']:.3g}" if row["objective"] is not None else ""))
     if t_rob is not None:
         print(f"{'robustness':<12} {t_rob:9.1f}s  {args.samples} Monte Carlo samples, "
               f"P(order holds) = {rob.p_order:.0%}")
