@@ -207,7 +207,7 @@ def test_example_script_pc_rises_with_top_wall():
     assert np.all(np.diff(pcs) > 0) and 0.3 < pcs[1] < 0.7
 
 
-@pytest.mark.parametrize("options", [{}, {"rigid_bottom": True}])
+@pytest.mark.parametrize("options", [{}, {"rigid_bottom": True}, {"side_lean": True}])
 def test_structured_derivatives_equal_ad_hessian(options):
     """The tracer's structured gradient/Hessian (per-region Hessians, arc functions with
     their own derivative rules) equals forward-over-forward AD of the whole energy."""
@@ -228,9 +228,52 @@ def test_structured_derivatives_equal_ad_hessian(options):
     ad = jax.jit(lambda u: (jax.grad(pi)(u), jax.hessian(pi)(u)))
     structured = jax.jit(lambda u: ck.derivatives(u[:-1], u[-1], th))
     for _ in range(3):
-        qf = rng.uniform([0.0, 0.0, 0.0, -0.01], [1.5, 1.2, 0.8, 0.03])[list(opts.free)]
+        qf = rng.uniform([0.0, 0.0, 0.0, -0.01, 0.0],
+                         [1.5, 1.2, 0.8, 0.03, 0.6])[list(opts.free)]
         u = jnp.asarray(np.append(qf, rng.uniform(0.0, 1.0)))
         g_ad, H_ad = ad(u)
         g, H = structured(u)
         np.testing.assert_allclose(np.asarray(g), np.asarray(g_ad), rtol=1e-10, atol=1e-12)
         np.testing.assert_allclose(np.asarray(H), np.asarray(H_ad), rtol=1e-10, atol=1e-12)
+
+
+def test_side_lean_volume_is_the_exact_trapezoid():
+    """With only the lean ψ non-zero the chamber section is a trapezoid (base wc, top
+    wc + 2 hc sin ψ, height hc cos ψ): ΔV = dc (hc² sin ψ cos ψ − wc hc (1 − cos ψ)); with a
+    top bulge too, the segment sits on the widened chord (area a'² A(φ) over the plateau)."""
+    import jax.numpy as jnp
+
+    from multimorph.rom import RomOptions, cell_kernel
+    from multimorph.rom._model import cell_theta
+
+    c = ref_cell()
+    ck = cell_kernel("gent", "gent", RomOptions(side_lean=True, end_taper=False))
+    th = cell_theta(c)
+    d = c.length
+    wc, hc, dc = c.chamber_width / d, c.chamber_height / d, c.chamber_length / d
+    for psi in (0.1, 0.4, 0.8):
+        q = jnp.asarray([0.0, 0.0, 0.0, 0.0, psi])
+        dv = float(ck.measures(q, 0.0, th)["volume"])
+        exact = dc * (hc**2 * np.sin(psi) * np.cos(psi) - wc * hc * (1 - np.cos(psi)))
+        assert dv == pytest.approx(exact, rel=1e-12)
+        phi = 0.9
+        q = jnp.asarray([0.0, phi, 0.0, 0.0, psi])
+        a = 0.5 * wc + hc * np.sin(psi)
+        seg = a**2 * (2 * phi - np.sin(2 * phi)) / (2 * np.sin(phi) ** 2)
+        dv2 = float(ck.measures(q, 0.0, th)["volume"])
+        assert dv2 == pytest.approx(exact + dc * seg, rel=1e-9)
+
+
+def test_side_lean_lowers_pc_and_leaves_the_default_alone(reference):
+    """The lean is a softer mode: freeing it lowers Pc (3D FE: the side walls lean out by
+    about the top wall's half-chord at Pc, docs/fe.md); the default model holds ψ = 0."""
+    from multimorph.rom import RomOptions
+    from multimorph.rom._model import solve_cell
+
+    lean = solve_cell(ref_cell(), 1.2 * MU, options=RomOptions(side_lean=True))
+    assert np.all(reference.path.extra["q"][:, 4] == 0.0)
+    pc0 = reference.characteristic.critical
+    pc1 = lean.characteristic.critical
+    assert 0.6 * pc0 < pc1 < 0.9 * pc0
+    psi = np.interp(pc1, lean.path.pressure, lean.path.extra["q"][:, 4])
+    assert 0.2 < psi < 0.7

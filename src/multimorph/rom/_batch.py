@@ -21,7 +21,7 @@ import numpy as np
 from multimorph.errors import SpecError
 from multimorph.geometry import CellGeometry
 from multimorph.response import EquilibriumPath, Response, build_response
-from multimorph.rom._cell_energy import GEOMETRY_KEYS, RomOptions, cell_kernel
+from multimorph.rom._cell_energy import COORDINATES, GEOMETRY_KEYS, RomOptions, cell_kernel
 from multimorph.rom._continuation import (
     REASON_TEXT,
     STATUS_TEXT,
@@ -103,8 +103,8 @@ class ResponseBatch:
         Pa.
     curvature : ndarray (B, N)
         1/m.
-    q : ndarray (B, N, 4)
-        Coordinates (κd, φt, φs, e).
+    q : ndarray (B, N, 5)
+        Coordinates (κd, φt, φs, e, ψ) (ψ = 0 unless ``side_lean``).
     stable : ndarray (B, N) of bool
     tangent_p : ndarray (B, N)
     count : ndarray (B,)
@@ -279,7 +279,7 @@ def solve_batch(cells: CellBatch | Sequence[CellGeometry], p_max: float | np.nda
             rows.append({k: np.asarray(v) for k, v in fn(q0, th, jnp.asarray(pm[i])).items()})
         out = {k: np.stack([r[k] for r in rows]) for k in rows[0]}
     u = out["u"]
-    q = np.zeros((*u.shape[:2], 4))
+    q = np.zeros((*u.shape[:2], len(COORDINATES)))
     q[:, :, list(opts.free)] = u[:, :, :nf]
     mu = batch.mu[:, None]
     return ResponseBatch(

@@ -2,12 +2,14 @@
 
 Coordinates (all dimensionless, zero in the reference state)::
 
-    q = (k, phi_t, phi_s, e)
+    q = (k, phi_t, phi_s, e, psi)
     k      = κ d        bend angle of the cell (curvature × cell length)
     phi_t  top-wall bulge: half-angle (rad) of the circular arc of the top wall's inner face
            across the chamber width, at mid-chamber
     phi_s  side-wall bulge: half-angle of the side walls' arcs across the chamber height
     e      = λ0 − 1     axial strain of the bottom wall's mid-plane (the reference line)
+    psi    side-wall lean: outward rotation (rad) of the side walls' chords about their base
+           corners (only with ``RomOptions(side_lean=True)``; held at 0 otherwise)
 
 The derivation and assumptions are in ``docs/rom.md``. The energy is
 
@@ -38,7 +40,7 @@ from multimorph.rom._kernels import c3, dsinc, gauss, sinc
 __all__ = ["COORDINATES", "GEOMETRY_KEYS", "CellKernel", "RomOptions", "cell_kernel"]
 
 #: Names of the generalised coordinates, in order.
-COORDINATES = ("k", "phi_t", "phi_s", "e")
+COORDINATES = ("k", "phi_t", "phi_s", "e", "psi")
 #: Dimensionless geometry entries of ``theta`` (lengths divided by the cell length d).
 GEOMETRY_KEYS = ("w", "h", "ht", "hb", "ws", "df")
 
@@ -62,6 +64,16 @@ class RomOptions:
     wall_bending : bool
         Through-thickness quadrature of the arc stretch of the bulging walls (their plate
         bending stiffness). ``False``: membranes.
+    side_lean : bool
+        Free the side walls' lean ψ (experimental; off by default). 3D FE shows the side
+        walls rotating outward about their base corners as the chamber balloons, which
+        widens the top wall's span (docs/fe.md, "ROM vs FE"). With ψ the side-wall chords
+        rotate outward by ψ about their base corners (the arcs φs ride on them), the top
+        wall spans wc + 2 hc sin ψ at height hb + hc cos ψ, the chamber section is the
+        exact trapezoid, and bending the walls' roots into the floor costs the clamped
+        plate's energy D δ²·3/(2 hc³) per wall and unit length (δ = hc sin ψ, D = μ ws³/3
+        for an incompressible plate in plane strain). The strips of top wall over the side
+        walls keep their height.
     taper : float
         Taper length over the bulging span (chamber width for the top wall, chamber height
         for the side walls).
@@ -74,6 +86,7 @@ class RomOptions:
     rigid_bottom: bool = False
     end_taper: bool = True
     wall_bending: bool = True
+    side_lean: bool = False
     taper: float = 1.0
     n_span: int = 4
     n_thick: int = 2
@@ -83,11 +96,12 @@ class RomOptions:
     @property
     def free(self) -> tuple[int, ...]:
         """Indices of the free coordinates in :data:`COORDINATES`."""
+        lean = (4,) if self.side_lean else ()
         if self.rigid_walls:
             return (1,)
         if self.rigid_bottom:
-            return (0, 1, 2)
-        return (0, 1, 2, 3)
+            return (0, 1, 2, *lean)
+        return (0, 1, 2, 3, *lean)
 
 
 def _law(name: str) -> Law:
@@ -253,8 +267,8 @@ class CellKernel:
     bottom_law: str
 
     def full(self, qf: Any) -> Any:
-        """Full coordinate vector (k, phi_t, phi_s, e) from the free ones."""
-        q = jnp.zeros((*qf.shape[:-1], 4), dtype=float)
+        """Full coordinate vector (k, phi_t, phi_s, e, psi) from the free ones."""
+        q = jnp.zeros((*qf.shape[:-1], len(COORDINATES)), dtype=float)
         return q.at[..., np.array(self.options.free)].set(qf)
 
 
@@ -283,7 +297,7 @@ def cell_kernel(wall_law: str, bottom_law: str, options: RomOptions = RomOptions
 
     def full(qf: Any) -> list[Any]:
         zero = jnp.zeros((), dtype=float)
-        return [qf[free.index(i)] if i in free else zero for i in range(4)]
+        return [qf[free.index(i)] if i in free else zero for i in range(len(COORDINATES))]
 
     def geometry(th: Any) -> dict[str, Any]:
         g = {k: th[k] for k in GEOMETRY_KEYS}
@@ -294,27 +308,31 @@ def cell_kernel(wall_law: str, bottom_law: str, options: RomOptions = RomOptions
 
     def membrane(phi0: Any, a: Any, thick: Any, s: np.ndarray, w_s: np.ndarray, dc: Any,
                  lam_y: Callable[[Any], Any], height: Callable[[Any, Any], Any],
-                 normal_z: Callable[[Any, Any], Any]) -> tuple[Any, Any, Any, Any]:
+                 normal_z: Callable[[Any, Any], Any], cs: Any = 1.0,
+                 ) -> tuple[Any, Any, Any, Any]:
         """Invariants, weights and largest stretch at (y, s, t) nodes of a bulging wall.
 
-        Section at y: a circular arc over the chord (half-chord a) of half-angle
-        phi(y) = phi0 g(y) (g = 1 on the plateau, → 0 at the end walls).
+        Section at y: a circular arc over the chord (reference half-chord a, stretched by
+        ``cs`` to a·cs) of half-angle phi(y) = phi0 g(y) (g = 1 on the plateau, → 0 at the
+        end walls).
         """
+        ad = a * cs
         wy, gy, gpy = _taper_nodes(o, dc, 2.0 * a)
         phi = phi0 * gy[:, None]                             # (ny, 1)
         dphi = phi0 * gpy[:, None]                           # dphi/dy
         pk = _arc_pack(tuple(float(x) for x in s))(phi)[..., None]   # (10, ny, ns, 1)
         X, Z, Xp, Zp, Xs, Zs, lam_s0, phisinc, cos_ps, sin_ps = pk
         dphi3 = dphi[:, :, None]
-        z_in = height(a * X, a * Z)
-        lam3m = 1.0 / (lam_s0 * lam_y(z_in))
+        z_in = height(ad * X, ad * Z)
+        lam_s = lam_s0 * cs
+        lam3m = 1.0 / (lam_s * lam_y(z_in))
         # bending strain of the fibre at t, measured from the mid-surface (curvature 1/ρ)
-        curv = phisinc / a
+        curv = phisinc / ad
         fac = 1.0 + (thick * tn - 0.5 * thick) * lam3m * curv if o.wall_bending else 1.0
-        G11 = (lam_s0 * fac) ** 2
+        G11 = (lam_s * fac) ** 2
         ly = lam_y(z_in + thick * tn * lam3m * normal_z(cos_ps, sin_ps))
-        G22 = ly * ly + (a * dphi3) ** 2 * (Xp * Xp + Zp * Zp)
-        G12 = a * dphi3 * (Xs * Xp + Zs * Zp)
+        G22 = ly * ly + (ad * dphi3) ** 2 * (Xp * Xp + Zp * Zp)
+        G12 = cs * ad * dphi3 * (Xs * Xp + Zs * Zp)
         tr = G11 + G22
         det = G11 * G22 - G12 * G12
         I1 = tr + 1.0 / det
@@ -339,34 +357,57 @@ def cell_kernel(wall_law: str, bottom_law: str, options: RomOptions = RomOptions
         return {"bottom": (lb_ * lb_ + 2.0 / lb_, 2.0 * lb_ + 1.0 / (lb_ * lb_), w_b, lb_),
                 "solid": (lw_ * lw_ + 2.0 / lw_, 2.0 * lw_ + 1.0 / (lw_ * lw_), w_w, lw_)}
 
-    def top_fields(k: Any, e: Any, phi_t: Any, th: Any) -> tuple[Any, Any, Any, Any]:
-        """Top wall over the chamber: chord at z = hb + hc, bulging up (half span)."""
+    def top_fields(k: Any, e: Any, phi_t: Any, th: Any, psi: Any = 0.0,
+                   ) -> tuple[Any, Any, Any, Any]:
+        """Top wall over the chamber: chord at z = hb + hc cos ψ (half-chord wc/2 + hc sin ψ
+        when the side walls lean), bulging up (half span)."""
         g = geometry(th)
         hb, hc = g["hb"], g["hc"]
         zb = 0.5 * hb
-        return membrane(phi_t, 0.5 * g["wc"], g["ht"], s_top, w_top, g["dc"],
+        a = 0.5 * g["wc"]
+        if o.side_lean:
+            cs = 1.0 + hc * jnp.sin(psi) / a
+            zt = hb + hc * jnp.cos(psi)
+        else:
+            cs, zt = 1.0, hb + hc
+        return membrane(phi_t, a, g["ht"], s_top, w_top, g["dc"],
                         lambda z: 1.0 + e + k * (z - zb),
-                        lambda x, zz: hb + hc + zz,
-                        lambda c, sn: c)
+                        lambda x, zz: zt + zz,
+                        lambda c, sn: c, cs)
 
-    def side_fields(k: Any, e: Any, phi_s: Any, th: Any) -> tuple[Any, Any, Any, Any]:
-        """The two side walls: chord vertical from z = hb to hb + hc, bulging outward."""
+    def side_fields(k: Any, e: Any, phi_s: Any, th: Any, psi: Any = 0.0,
+                    ) -> tuple[Any, Any, Any, Any]:
+        """The two side walls: chord from z = hb up to hb + hc (rotated outward by the lean
+        ψ about its base corner), bulging outward."""
         g = geometry(th)
         hb, hc = g["hb"], g["hc"]
         zb = 0.5 * hb
         a_s = 0.5 * hc
-        I1, I2, ww, lm = membrane(phi_s, a_s, g["ws"], s_side, w_side, g["dc"],
-                                  lambda z: 1.0 + e + k * (z - zb),
-                                  lambda x, zz: hb + a_s + x,
-                                  lambda c, sn: sn)
+        if o.side_lean:
+            c_l, s_l = jnp.cos(psi), jnp.sin(psi)
+            I1, I2, ww, lm = membrane(phi_s, a_s, g["ws"], s_side, w_side, g["dc"],
+                                      lambda z: 1.0 + e + k * (z - zb),
+                                      lambda x, zz: hb + (a_s + x) * c_l - zz * s_l,
+                                      lambda c, sn: sn * c_l - c * s_l)
+        else:
+            I1, I2, ww, lm = membrane(phi_s, a_s, g["ws"], s_side, w_side, g["dc"],
+                                      lambda z: 1.0 + e + k * (z - zb),
+                                      lambda x, zz: hb + a_s + x,
+                                      lambda c, sn: sn)
         return I1, I2, 2.0 * ww, lm
+
+    def u_hinge(psi: Any, th: Any) -> Any:
+        """Bending the two side walls' roots into the floor (clamped plates, initial μ = 1):
+        2 walls × dc × (3/2) D δ² / hc³ with D = ws³/3 and δ = hc sin ψ."""
+        g = geometry(th)
+        return g["dc"] * g["ws"] ** 3 * jnp.sin(psi) ** 2 / g["hc"]
 
     def fields(qf: Any, th: Any) -> dict[str, Any]:
         """Invariants (I1, I2), weights and largest stretches at all quadrature points."""
-        k, phi_t, phi_s, e = full(qf)
+        k, phi_t, phi_s, e, psi = full(qf)
         out = solid_fields(k, e, th)
-        out["top"] = top_fields(k, e, phi_t, th)
-        out["side"] = side_fields(k, e, phi_s, th)
+        out["top"] = top_fields(k, e, phi_t, th, psi)
+        out["side"] = side_fields(k, e, phi_s, th, psi)
         return out
 
     def w_wall(I1: Any, I2: Any, th: Any) -> Any:
@@ -380,22 +421,38 @@ def cell_kernel(wall_law: str, bottom_law: str, options: RomOptions = RomOptions
         return volume4(full(qf), th)
 
     def volume4(q: Any, th: Any) -> Any:
-        """ΔV/d³ from all four coordinates (k, φt, φs, e)."""
+        """ΔV/d³ from all coordinates (k, φt, φs, e, ψ)."""
         k, phi_t, phi_s, e = q[0], q[1], q[2], q[3]
         g = geometry(th)
         hb, hc, wc, dc = g["hb"], g["hc"], g["wc"], g["dc"]
         zb = 0.5 * hb
         a_t, a_s = 0.5 * wc, 0.5 * hc
-        dv = dc * wc * hc * (e + k * (hb + 0.5 * hc - zb))
+        if o.side_lean:
+            psi = q[4]
+            c_l, s_l = jnp.cos(psi), jnp.sin(psi)
+            # trapezoid: base wc at hb, top wc + 2 hc sin ψ at hb + hc cos ψ
+            hh, top = hc * c_l, wc + 2.0 * hc * s_l
+            area = 0.5 * (wc + top) * hh
+            zc = hb + hh * (wc + 2.0 * top) / (3.0 * (wc + top))
+            dv = dc * (area * (1.0 + e + k * (zc - zb)) - wc * hc)
+            a_top, z_top, z_side = a_t + hc * s_l, hb + hh, hb + a_s * c_l
+        else:
+            s_l = 0.0
+            dv = dc * wc * hc * (e + k * (hb + 0.5 * hc - zb))
+            a_top, z_top, z_side = a_t, hb + hc, hb + 0.5 * hc
         wy, gy, _ = _taper_nodes(o, dc, 2.0 * a_t)
         phi = phi_t * gy
         seg = _segment_pack(phi)
-        A = a_t**2 * jnp.sum(wy * seg[0])
-        M = a_t**3 * jnp.sum(wy * seg[1])
-        dv += A * (1.0 + e + k * (hb + hc - zb)) + k * M
+        A = a_top**2 * jnp.sum(wy * seg[0])
+        M = a_top**3 * jnp.sum(wy * seg[1])
+        dv += A * (1.0 + e + k * (z_top - zb)) + k * M
         wy, gy, _ = _taper_nodes(o, dc, 2.0 * a_s)
-        As = a_s**2 * jnp.sum(wy * _segment_pack(phi_s * gy)[0])
-        dv += 2.0 * As * (1.0 + e + k * (hb + 0.5 * hc - zb))
+        segs = _segment_pack(phi_s * gy)
+        As = a_s**2 * jnp.sum(wy * segs[0])
+        dv += 2.0 * As * (1.0 + e + k * (z_side - zb))
+        if o.side_lean:
+            # the leaning segment's centroid sits lower by its offset from the chord × sin ψ
+            dv -= 2.0 * k * s_l * a_s**3 * jnp.sum(wy * segs[1])
         return dv
 
     def strain_energy(qf: Any, th: Any) -> Any:
@@ -405,6 +462,8 @@ def cell_kernel(wall_law: str, bottom_law: str, options: RomOptions = RomOptions
         for key in ("solid", "top", "side"):
             I1, I2, w, _ = f[key]
             u += jnp.sum(w * w_wall(I1, I2, th))
+        if o.side_lean:
+            u += u_hinge(full(qf)[4], th)
         return u
 
     def energy(qf: Any, p: Any, th: Any) -> Any:
@@ -428,15 +487,21 @@ def cell_kernel(wall_law: str, bottom_law: str, options: RomOptions = RomOptions
         return u + jnp.sum(w * w_wall(I1, I2, th))
 
     def u_top(x: Any, th: Any) -> Any:
-        I1, I2, w, _ = top_fields(x[0], x[1], x[2], th)
+        psi = x[3] if o.side_lean else 0.0
+        I1, I2, w, _ = top_fields(x[0], x[1], x[2], th, psi)
         return jnp.sum(w * w_wall(I1, I2, th))
 
     def u_side(x: Any, th: Any) -> Any:
-        I1, I2, w, _ = side_fields(x[0], x[1], x[2], th)
-        return jnp.sum(w * w_wall(I1, I2, th))
+        psi = x[3] if o.side_lean else 0.0
+        I1, I2, w, _ = side_fields(x[0], x[1], x[2], th, psi)
+        u = jnp.sum(w * w_wall(I1, I2, th))
+        return u + u_hinge(psi, th) if o.side_lean else u
 
-    i_solid, i_top, i_side = np.array([0, 3]), np.array([0, 3, 1]), np.array([0, 3, 2])
-    P_solid, P_top, P_side, P_free = (jnp.asarray(np.eye(4)[ix]) for ix in (
+    lean_ix = [4] if o.side_lean else []
+    i_solid = np.array([0, 3])
+    i_top, i_side = np.array([0, 3, 1, *lean_ix]), np.array([0, 3, 2, *lean_ix])
+    nq = len(COORDINATES)
+    P_solid, P_top, P_side, P_free = (jnp.asarray(np.eye(nq)[ix]) for ix in (
         i_solid, i_top, i_side, np.array(free)))
 
     def derivatives(qf: Any, p: Any, th: Any) -> tuple[Any, Any]:

@@ -26,13 +26,13 @@ from multimorph.rom._continuation import (
 
 __all__ = ["DEFAULT_SETTINGS", "cell_theta", "material_theta", "solve_cell"]
 
-#: Step control of the cell tracer: coordinates (κd, φt, φs, e) and p = P/μ scaled so that
+#: Step control of the cell tracer: coordinates (κd, φt, φs, e, ψ) and p = P/μ scaled so that
 #: one unit of arc length is about a radian of bulge or bend, or 0.2 μ of pressure. A Newton
 #: correction below 1e-4 ends a step (the accepted point's residual is then ~1e-8; κ(P)
 #: moves by < 1e-8 relative against a fully converged trace, at 40 % fewer evaluations).
 #: 600 steps: soft walls traced to many times their μ (P/μ = 4.7 for Ecoflex 00-30 at
 #: 70 kPa) need more than 200 steps of 0.024 μ on the hardening plateau.
-DEFAULT_SETTINGS = TracerSettings(q_scale=(1.0, 1.0, 1.0, 0.1), p_scale=0.2, ds0=0.02,
+DEFAULT_SETTINGS = TracerSettings(q_scale=(1.0, 1.0, 1.0, 0.1, 1.0), p_scale=0.2, ds0=0.02,
                                   ds_max=0.12, n_steps=600, n_newton=8, tol=1e-9,
                                   step_tol=1e-4)
 
@@ -140,7 +140,7 @@ def solve_cell(cell: CellGeometry, p_max: float, *, options: RomOptions | None =
     Returns
     -------
     Response
-        ``backend = "rom"``; ``path.extra["q"]`` holds the coordinates (κd, φt, φs, e).
+        ``backend = "rom"``; ``path.extra["q"]`` holds the coordinates (κd, φt, φs, e, ψ).
 
     Raises
     ------
@@ -180,7 +180,7 @@ def solve_cell(cell: CellGeometry, p_max: float, *, options: RomOptions | None =
             f"{where} ({why}; last converged P = {raw.p[-1] * mu / 1e3:.4g} kPa)")
     qf = raw.q
     meas = padded_measures(measures, qf, raw.p, theta)
-    q = np.zeros((qf.shape[0], 4))
+    q = np.zeros((qf.shape[0], len(COORDINATES)))
     q[:, list(opts.free)] = qf
     path = path_from_raw(cell, raw, q, meas)
     return build_response(
