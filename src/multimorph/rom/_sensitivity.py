@@ -48,7 +48,7 @@ import numpy as np
 from multimorph.errors import SpecError
 from multimorph.geometry import CellGeometry
 from multimorph.response import EquilibriumPath
-from multimorph.rom._cell_energy import GEOMETRY_KEYS, RomOptions, cell_kernel
+from multimorph.rom._cell_energy import COORDINATES, GEOMETRY_KEYS, RomOptions, cell_kernel
 from multimorph.rom._continuation import TracerSettings
 from multimorph.rom._kernels import solve_small
 from multimorph.rom._model import DEFAULT_SETTINGS, cell_theta, free_settings
@@ -201,9 +201,9 @@ def path_sensitivity(cell: CellGeometry, path: EquilibriumPath, *,
     opts = options or RomOptions()
     st = settings or DEFAULT_SETTINGS
     q = path.extra.get("q") if path.extra else None
-    if q is None or np.asarray(q).ndim != 2 or np.asarray(q).shape[1] != 4:
-        raise SpecError("path_sensitivity needs a reduced-model path with its coordinates "
-                        "(k, phi_t, phi_s, e) in path.extra['q'] (from rom.solve_cell)")
+    if q is None or np.asarray(q).ndim != 2 or np.asarray(q).shape[1] != len(COORDINATES):
+        raise SpecError(f"path_sensitivity needs a reduced-model path with its coordinates "
+                        f"({', '.join(COORDINATES)}) in path.extra['q'] (from rom.solve_cell)")
     assert cell.bottom_material is not None
     mu, d = cell.mu, cell.length
     free = list(opts.free)
