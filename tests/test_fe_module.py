@@ -54,14 +54,15 @@ def test_cells_of_a_module_bend_alike() -> None:
     single mounted cell turns (the shared partition is pressed from both sides and stays
     put); the module's circle fit then matches its end rotation (uniform curvature)."""
     g = _cell()
-    s = FESettings(mesh="coarse", p_max=0.3 * MU)
+    s = FESettings(mesh="coarse", p_max=0.25 * MU)
     one = simulate_cell(g, s)
     two = simulate_cell(g, s, n_cells=2)
     assert two.stats["n_cells"] == 2 and two.response.length == pytest.approx(2 * g.length)
-    for P in (0.2 * MU, 0.3 * MU):
+    for P in (0.15 * MU, 0.25 * MU):
         a1 = np.interp(P, one.response.loading.pressure, one.response.loading.extra["bend_angle"])
         a2 = np.interp(P, two.response.loading.pressure, two.response.loading.extra["bend_angle"])
-        # the clamp stiffens the first cell a little: measured 0.94-0.96 on this mesh
+        # the clamp stiffens the first cell a little: measured 0.94-0.96 on this mesh (0.2
+        # and 0.3 μ)
         assert 0.85 < a2 / (2 * a1) < 1.05
         k2 = np.interp(P, two.response.loading.pressure, two.response.loading.curvature)
         assert k2 == pytest.approx(a2 / (2 * g.length), rel=0.15)
