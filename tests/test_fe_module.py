@@ -76,11 +76,7 @@ def test_cli_fem_refuses_a_module_without_cells(tmp_path: Path) -> None:
     from multimorph.cli._app import _register, app
 
     _register()
-    spec = tmp_path / "cell.toml"
-    spec.write_text(
-        '[cell]\nlength = "10 mm"\nwidth = "8 mm"\nheight = "6 mm"\ntop_wall = "1 mm"\n'
-        'bottom_wall = "1.5 mm"\nside_wall = "1.5 mm"\nend_wall = "1.5 mm"\n'
-        '[cell.material]\nmodel = "gent"\nmu = "100 kPa"\njm = 30\n')
+    spec = Path(__file__).resolve().parents[1] / "examples" / "fe_cell.toml"
     out = tmp_path / "out"
     res = CliRunner().invoke(app, ["fem", str(spec), "--cells", "0", "--out", str(out),
                                    "--json"])

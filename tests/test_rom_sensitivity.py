@@ -13,9 +13,8 @@ import pytest
 from scipy.interpolate import CubicSpline
 
 import multimorph  # noqa: F401  (float64)
+from _cells import MU, ref_cell
 from multimorph.errors import SpecError
-from multimorph.geometry import CellGeometry
-from multimorph.materials import Material
 from multimorph.rom import (
     LENGTHS,
     characteristic_sensitivity,
@@ -25,17 +24,7 @@ from multimorph.rom import (
 
 pytestmark = pytest.mark.slow
 
-MU = 2.45e5
-WALL = Material("gent", {"mu": MU, "jm": 20.0})
-BOTTOM = Material("gent", {"mu": 1.2e6, "jm": 20.0})
 P_MAX = 1.2 * MU
-
-
-def ref_cell(**kw) -> CellGeometry:
-    base = dict(length=20e-3, width=10e-3, height=8e-3, top_wall=0.8e-3, bottom_wall=2e-3,
-                side_wall=1.5e-3, end_wall=1.5e-3, material=WALL, bottom_material=BOTTOM)
-    base.update(kw)
-    return CellGeometry(**base)
 
 
 @pytest.fixture(scope="module")
