@@ -437,7 +437,6 @@ def cell_kernel(wall_law: str, bottom_law: str, options: RomOptions = RomOptions
             dv = dc * (area * (1.0 + e + k * (zc - zb)) - wc * hc)
             a_top, z_top, z_side = a_t + hc * s_l, hb + hh, hb + a_s * c_l
         else:
-            s_l = 0.0
             dv = dc * wc * hc * (e + k * (hb + 0.5 * hc - zb))
             a_top, z_top, z_side = a_t, hb + hc, hb + 0.5 * hc
         wy, gy, _ = _taper_nodes(o, dc, 2.0 * a_t)
