@@ -40,7 +40,8 @@ CASES = [
 
 def rate_fraction(strains, pressure):
     loading = strains.response.loading
-    p, m = loading.pressure, np.abs(loading.curvature)
+    signal = strains.response.characteristic.signal   # the axial stretch for a stretching cell
+    p, m = loading.pressure, np.abs(getattr(loading, signal))
     rate = np.gradient(m, p)
     return float(np.interp(pressure, p, rate) / np.max(rate))
 

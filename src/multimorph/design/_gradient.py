@@ -138,7 +138,8 @@ def objective_jacobian(space: SearchSpace, ev: Evaluation, variables: Sequence[i
             path = sens[stage].perturbed(resps[stage].path, dg)
             rs[stage] = build_response(path, length=cell.length,
                                        shear_modulus=cell.mu, backend="rom",
-                                       break_stretch=cell.material.break_stretch)
+                                       break_stretch=cell.material.break_stretch,
+                                       signal=cell.signal)
         return _relaxed(target, c, rs, tp)
 
     r0 = _relaxed(target, cand, resps, tp)

@@ -61,10 +61,10 @@ def _rom_fast(rom: Any, vectorise: bool | None = None) -> BatchModel | None:
 
     from multimorph.response import EquilibriumPath, build_response
 
-    compiled: dict[tuple[str, str], Any] = {}
+    compiled: dict[tuple[str, str, Any], Any] = {}
 
     def measures_fn(wall: str, bottom: str, options: Any) -> Any:
-        key = (wall, bottom)
+        key = (wall, bottom, options)
         if key not in compiled:
             ck = rom.cell_kernel(wall, bottom, options)
             inner = jax.vmap(ck.measures, in_axes=(0, 0, None))
@@ -72,12 +72,13 @@ def _rom_fast(rom: Any, vectorise: bool | None = None) -> BatchModel | None:
         return compiled[key]
 
     def call(cells: Sequence[CellGeometry], p_max: float) -> list[Any]:
-        groups: dict[tuple[str, str], list[int]] = {}
+        groups: dict[tuple[str, str, bool], list[int]] = {}
         for i, c in enumerate(cells):
             assert c.bottom_material is not None
-            groups.setdefault((c.material.model, c.bottom_material.model), []).append(i)
+            groups.setdefault((c.material.model, c.bottom_material.model, c.symmetric),
+                              []).append(i)
         out: list[Any] = [MultimorphError("not evaluated")] * len(cells)
-        for (wall, bottom), idx in groups.items():
+        for (wall, bottom, _), idx in groups.items():
             try:
                 batch = rom.CellBatch.from_cells([cells[i] for i in idx])
                 rb = rom.solve_batch(batch, p_max, vectorise=vectorise)
@@ -111,6 +112,7 @@ def _rom_fast(rom: Any, vectorise: bool | None = None) -> BatchModel | None:
                     bs = cells[i].material.break_stretch
                     out[i] = build_response(path, length=d, shear_modulus=float(batch.mu[j]),
                                             backend="rom", break_stretch=bs,
+                                            signal=cells[i].signal,
                                             meta={"model": "cell-ritz", "points": m})
                 except MultimorphError as exc:
                     out[i] = exc

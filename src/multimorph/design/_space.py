@@ -115,11 +115,12 @@ class SearchSpace:
             im = min(int(u[7] * nm), nm - 1)
             ib = min(int(u[8] * nm), nm - 1)
             wall = mats[im]
-            if st.kind == "stretch":
+            sym = st.kind == "stretch"
+            if sym:
                 hb, ib = ht, im
             bottom = mats[ib]
             cells.append(CellGeometry(d, w, h, ht, hb, ws, df, material=wall,
-                                      bottom_material=bottom))
+                                      bottom_material=bottom, symmetric=sym))
             tilts.append(TILT_RANGE[0] + u[9] * (TILT_RANGE[1] - TILT_RANGE[0]))
             midx.append((im, ib))
         return Candidate(x=x, cells=tuple(cells), tilts=tuple(tilts),

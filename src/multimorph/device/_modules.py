@@ -7,11 +7,11 @@ module's strains per unit length in its body frame (see :mod:`._kinematics`):
 - **bending**: the cells' curvature κ(P) bends the module about its x axis, toward the stiff
   bottom layer. ``orientation`` rotates the bending plane about the axis (180°: the stiff
   layer on the other side, so the module bends the opposite way).
-- **stretching**: cells without a stiff layer (symmetric walls) lengthen. The reduced cell
-  model traces the cell with the bottom wall of the same elastomer and thickness as the top
-  wall; by the mirror symmetry of the real chamber the curvature cancels and the module's
-  axial stretch is the stretch of the cell's mid-height line, λ = λ0 (1 + κ h/2) (λ0 the
-  stretch of the bottom reference line). Its radial bulge is reported too.
+- **stretching**: cells without a stiff layer (symmetric walls) lengthen. The module marks its
+  cell mirror-symmetric (``CellGeometry.symmetric``), so the reduced model bulges the bottom
+  wall like the top one, holds κ = 0 and reads Pc/Ph on the axial stretch; the module's
+  stretch is the cell's axial stretch λ = λ0 (1 + κ h/2) (κ = 0 here; the FE backend measures
+  it on the mesh). Its radial bulge is reported too.
 - **twisting**: cells tilted by β to the strip axis on strips around a central shaft
   (``strips`` of them, equally spaced). Each strip's chambers expand along the cell axis,
   which makes an angle β with the strip axis; the strip's natural strain at its mid-height
@@ -118,6 +118,9 @@ class Module:
                 raise SpecError(
                     f"{where}: a stretching module has symmetric walls: bottom_wall must equal "
                     f"top_wall and bottom_material must equal material")
+            if not c.symmetric:
+                # the reduced model traces it as a mirror-symmetric cell (bulging bottom wall)
+                object.__setattr__(self, "cell", c.mirrored())
 
     @property
     def length(self) -> float:

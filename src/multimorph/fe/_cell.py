@@ -304,6 +304,7 @@ def simulate_cell(geometry: CellGeometry, settings: FESettings | None = None, *,
                      for k, v in asdict(s).items()},
     }
     resp = build_response(path, length=mesh.length, shear_modulus=mu, backend="fe",
-                          break_stretch=geometry.material.break_stretch, meta=stats)
+                          break_stretch=geometry.material.break_stretch, meta=stats,
+                          signal=geometry.signal)
     return FEResult(response=resp, mesh=mesh, displacements=np.array(rec.u),
                     stretch=np.array(rec.cell_stretch), stats=stats)

@@ -52,6 +52,12 @@ class CellGeometry:
         Elastomer of the top, side and end walls.
     bottom_material : Material, optional
         Elastomer of the bottom wall (the strain-limiting layer); default ``material``.
+    symmetric : bool
+        The cell is mirror-symmetric about its mid-height (a stretching cell: bottom wall =
+        top wall, one elastomer). The reduced model then bulges the bottom wall like the top
+        one and the cell stretches instead of bending (``RomOptions(mirror=True)``). Set by
+        stretching modules; requires ``bottom_wall == top_wall`` and
+        ``bottom_material == material``.
 
     Examples
     --------
@@ -71,6 +77,7 @@ class CellGeometry:
     end_wall: float
     material: Material
     bottom_material: Material | None = None
+    symmetric: bool = False
 
     def __post_init__(self) -> None:
         for key in CELL_KEYS:
@@ -87,6 +94,15 @@ class CellGeometry:
             object.__setattr__(self, "bottom_material", self.material)
         elif not isinstance(self.bottom_material, Material):
             raise SpecError("bottom_material: expected a Material")
+        if not isinstance(self.symmetric, bool):
+            raise SpecError(f"symmetric: expected true or false, got {self.symmetric!r}")
+        if self.symmetric and (self.bottom_material != self.material
+                               or not math.isclose(self.bottom_wall, self.top_wall,
+                                                   rel_tol=1e-9)):
+            raise SpecError(
+                f"symmetric: a mirror-symmetric cell needs bottom_wall = top_wall (got "
+                f"{_fmt(self.bottom_wall)} and {_fmt(self.top_wall)}) and bottom_material = "
+                f"material")
         if self.chamber_width <= 0:
             raise SpecError(
                 f"side_wall {_fmt(self.side_wall)} leaves no chamber in width {_fmt(self.width)}"
@@ -129,6 +145,12 @@ class CellGeometry:
     dc = chamber_length
 
     @property
+    def signal(self) -> str:
+        """The path quantity that shows the cell's activation: ``"axial_stretch"`` for a
+        mirror-symmetric (stretching) cell, which does not bend, else ``"curvature"``."""
+        return "axial_stretch" if self.symmetric else "curvature"
+
+    @property
     def mu(self) -> float:
         """Shear modulus of the wall material (Pa)."""
         return self.material.shear_modulus
@@ -154,7 +176,14 @@ class CellGeometry:
         d["material"] = self.material.to_dict()
         assert self.bottom_material is not None
         d["bottom_material"] = self.bottom_material.to_dict()
+        if self.symmetric:
+            d["symmetric"] = True
         return d
+
+    def mirrored(self) -> CellGeometry:
+        """The same cell declared mirror-symmetric (bottom wall and material = the top's)."""
+        return replace(self, bottom_wall=self.top_wall, bottom_material=self.material,
+                       symmetric=True)
 
     @classmethod
     def from_spec(cls, table: Mapping[str, Any], *, field: str = "cell") -> CellGeometry:
@@ -163,7 +192,7 @@ class CellGeometry:
 
         if not isinstance(table, Mapping):
             raise SpecError(f"{field}: expected a table")
-        allowed = set(CELL_KEYS) | {"material", "bottom_material"}
+        allowed = set(CELL_KEYS) | {"material", "bottom_material", "symmetric"}
         unknown = sorted(set(table) - allowed)
         if unknown:
             raise SpecError(f"{field}: unknown key(s) {', '.join(unknown)}; expected "
@@ -181,6 +210,11 @@ class CellGeometry:
         if "bottom_material" in table:
             kw["bottom_material"] = material_from_spec(table["bottom_material"],
                                                        f"{field}.bottom_material")
+        if "symmetric" in table:
+            if not isinstance(table["symmetric"], bool):
+                raise SpecError(f"{field}.symmetric: expected true or false, got "
+                                f"{table['symmetric']!r}")
+            kw["symmetric"] = table["symmetric"]
         try:
             return cls(**kw)
         except SpecError as exc:

@@ -13,7 +13,8 @@ __all__ = ["build_response"]
 
 def build_response(path: EquilibriumPath, *, length: float, shear_modulus: float,
                    backend: str, break_stretch: float | None = None,
-                   meta: dict[str, Any] | None = None) -> Response:
+                   meta: dict[str, Any] | None = None,
+                   signal: str = "curvature") -> Response:
     """Observed loading/unloading curves and characteristic pressures of ``path``.
 
     Parameters
@@ -30,9 +31,13 @@ def build_response(path: EquilibriumPath, *, length: float, shear_modulus: float
         Stretch at break of the wall material, for the failure pressure.
     meta : dict, optional
         Solver statistics (JSON-able).
+    signal : {"curvature", "axial_stretch"}
+        What Pc and Ph are read on (see :func:`characteristic_pressures`): the axial stretch
+        for a mirror-symmetric stretching cell, which does not bend.
     """
     loading, unloading = observed_curves(path)
-    char = characteristic_pressures(path, loading=loading, break_stretch=break_stretch)
+    char = characteristic_pressures(path, loading=loading, break_stretch=break_stretch,
+                                    signal=signal)
     return Response(path=path, loading=loading, unloading=unloading, characteristic=char,
                     length=float(length), shear_modulus=float(shear_modulus), backend=backend,
                     meta=dict(meta or {}))

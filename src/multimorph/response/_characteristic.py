@@ -21,17 +21,27 @@ Definitions (physics-notes §6; the same for every backend):
   without a break stretch or when not reached.
 
 Curvatures at each are interpolated on the loading curve (at a limit point: on the path).
+
+The signal is κ for bending (and twisting) cells. A mirror-symmetric stretching cell does not
+bend; its activation is read on the axial stretch instead (``signal="axial_stretch"``): the
+same definitions with λ in place of κ (κ at each pressure is still reported, zero there).
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
+from multimorph.errors import SpecError
 from multimorph.response._observed import observed_curves
 from multimorph.response._types import CharacteristicPressures, EquilibriumPath
 
-__all__ = ["SNAP_FRACTION", "characteristic_pressures", "critical_pressure",
+__all__ = ["SIGNALS", "SNAP_FRACTION", "characteristic_pressures", "critical_pressure",
            "hardening_pressure"]
+
+#: Path quantities the characteristic pressures can be read on.
+SIGNALS = ("curvature", "axial_stretch")
 
 #: Least κ jump of a snap, as a fraction of the path's κ range, for a fold to count as the
 #: activation (and for a snap to restart the search for the hardening knee).
@@ -158,7 +168,8 @@ def _failure(loading: EquilibriumPath, break_stretch: float | None,
 
 
 def characteristic_pressures(path: EquilibriumPath, *, loading: EquilibriumPath | None = None,
-                             break_stretch: float | None = None) -> CharacteristicPressures:
+                             break_stretch: float | None = None,
+                             signal: str = "curvature") -> CharacteristicPressures:
     """Pc, Ph and the failure pressure (Pa) of an equilibrium path, with κ at each.
 
     Parameters
@@ -169,16 +180,28 @@ def characteristic_pressures(path: EquilibriumPath, *, loading: EquilibriumPath 
         Its observed loading curve (computed with :func:`observed_curves` if omitted).
     break_stretch : float, optional
         Uniaxial stretch at break of the wall material (-).
+    signal : {"curvature", "axial_stretch"}
+        The path quantity whose activation and hardening define Pc and Ph: κ (bending and
+        twisting cells) or the axial stretch (mirror-symmetric stretching cells).
 
     Returns
     -------
     CharacteristicPressures
     """
+    if signal not in SIGNALS:
+        raise SpecError(f"signal must be one of {', '.join(SIGNALS)}, got {signal!r}")
     if loading is None:
         loading = observed_curves(path)[0]
+    real = loading
+    if signal != "curvature":
+        path = replace(path, curvature=np.asarray(getattr(path, signal), float))
+        loading = replace(loading, curvature=np.asarray(getattr(loading, signal), float))
     pc, kind, kc = critical_pressure(path, loading)
     ph, kh = hardening_pressure(loading, pc)
     pf, kf = _failure(loading, break_stretch)
+    if signal != "curvature":
+        P, k = _monotone(real.pressure, real.curvature)
+        kc, kh, kf = (None if x is None else float(np.interp(x, P, k)) for x in (pc, ph, pf))
     return CharacteristicPressures(critical=pc, critical_kind=kind, hardening=ph, failure=pf,
                                    curvature_at={"critical": kc, "hardening": kh,
-                                                 "failure": kf})
+                                                 "failure": kf}, signal=signal)

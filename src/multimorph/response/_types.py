@@ -103,6 +103,9 @@ class CharacteristicPressures:
         Pressure at which the peak principal stretch reaches the material's break stretch.
     curvature_at : dict
         κ (1/m) at ``"critical"``, ``"hardening"``, ``"failure"`` (``None`` when not reached).
+    signal : {"curvature", "axial_stretch"}
+        The path quantity Pc and Ph were read on: κ, or the axial stretch of a
+        mirror-symmetric (stretching) cell, which does not bend.
     """
 
     critical: float | None
@@ -110,6 +113,7 @@ class CharacteristicPressures:
     hardening: float | None
     failure: float | None
     curvature_at: dict[str, float | None] = field(default_factory=dict)
+    signal: str = "curvature"
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -118,6 +122,7 @@ class CharacteristicPressures:
             "hardening_pressure": self.hardening,
             "failure_pressure": self.failure,
             "curvature_at": dict(self.curvature_at),
+            "signal": self.signal,
         }
 
 

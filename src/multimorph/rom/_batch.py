@@ -10,7 +10,7 @@ designer (``Response`` or the exception of a design that failed, per cell).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import lru_cache
 from typing import Any
 
@@ -52,6 +52,9 @@ class CellBatch:
         Law parameters with moduli divided by the wall μ.
     break_stretch : ndarray (B,)
         Wall break stretch (NaN when unknown).
+    symmetric : bool
+        Mirror-symmetric (stretching) cells: traced with ``RomOptions(mirror=True)``, Pc/Ph
+        read on the axial stretch.
     """
 
     length: np.ndarray
@@ -62,6 +65,7 @@ class CellBatch:
     wall_params: dict[str, np.ndarray]
     bottom_params: dict[str, np.ndarray]
     break_stretch: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    symmetric: bool = False
 
     def __len__(self) -> int:
         return int(np.asarray(self.length).shape[0])
@@ -75,6 +79,10 @@ class CellBatch:
         if len(laws) > 1:
             raise SpecError(f"a CellBatch needs one wall law and one bottom law; got {laws}")
         wall_law, bottom_law = laws.pop()
+        sym = {c.symmetric for c in cells}
+        if len(sym) > 1:
+            raise SpecError("a CellBatch needs cells that are all mirror-symmetric or all not "
+                            "(CellGeometry.symmetric)")
         thetas = [cell_theta(c) for c in cells]
         return cls(
             length=np.array([c.length for c in cells]),
@@ -84,6 +92,7 @@ class CellBatch:
             wall_params={k: np.array([t["mw"][k] for t in thetas]) for k in thetas[0]["mw"]},
             bottom_params={k: np.array([t["mb"][k] for t in thetas]) for k in thetas[0]["mb"]},
             break_stretch=np.array([c.material.break_stretch or np.nan for c in cells]),
+            symmetric=sym.pop(),
         )
 
     def theta(self) -> dict[str, Any]:
@@ -182,6 +191,7 @@ class ResponseBatch:
         return build_response(self.path(i), length=float(self.cells.length[i]),
                               shear_modulus=float(self.cells.mu[i]), backend="rom",
                               break_stretch=None if np.isnan(bs) else bs,
+                              signal="axial_stretch" if self.options.mirror else "curvature",
                               meta={"model": "cell-ritz", "batch_index": i,
                                     "points": int(self.count[i]),
                                     "rejected_steps": int(self.n_rejected[i])})
@@ -249,6 +259,8 @@ def solve_batch(cells: CellBatch | Sequence[CellGeometry], p_max: float | np.nda
     """
     batch = cells if isinstance(cells, CellBatch) else CellBatch.from_cells(list(cells))
     opts = options or RomOptions()
+    if batch.symmetric and not opts.mirror:
+        opts = replace(opts, mirror=True)
     st = settings or DEFAULT_SETTINGS
     pm = np.broadcast_to(np.asarray(p_max, float), (len(batch),)) / batch.mu
     if not np.all(np.isfinite(pm) & (pm > 0)):
@@ -302,9 +314,10 @@ def simulate_cells(cells: Sequence[CellGeometry], p_max: float, **options: Any,
         :class:`RomOptions` fields (e.g. ``rigid_bottom=True``).
     """
     opts = RomOptions(**options)
-    groups: dict[tuple[str, str], list[int]] = {}
+    groups: dict[tuple[str, str, bool], list[int]] = {}
     for i, c in enumerate(cells):
-        groups.setdefault((c.material.model, c.bottom_material.model), []).append(i)  # type: ignore[union-attr]
+        groups.setdefault((c.material.model, c.bottom_material.model, c.symmetric),  # type: ignore[union-attr]
+                          []).append(i)
     out: list[Response | Exception] = [SpecError("not evaluated")] * len(cells)
     for idx in groups.values():
         try:

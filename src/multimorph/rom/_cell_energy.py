@@ -87,15 +87,23 @@ class RomOptions:
     end_taper: bool = True
     wall_bending: bool = True
     side_lean: bool = False
+    mirror: bool = False
     taper: float = 1.0
     n_span: int = 4
     n_thick: int = 2
     n_taper: int = 4
     n_layer: int = 3
 
+    def __post_init__(self) -> None:
+        if self.mirror and (self.rigid_walls or self.rigid_bottom or self.side_lean):
+            raise SpecError("RomOptions: mirror (a symmetric stretching cell) cannot be "
+                            "combined with rigid_walls, rigid_bottom or side_lean")
+
     @property
     def free(self) -> tuple[int, ...]:
         """Indices of the free coordinates in :data:`COORDINATES`."""
+        if self.mirror:
+            return (1, 2, 3)
         lean = (4,) if self.side_lean else ()
         if self.rigid_walls:
             return (1,)
@@ -349,7 +357,10 @@ def cell_kernel(wall_law: str, bottom_law: str, options: RomOptions = RomOptions
         hb, hc, ht, ws, dc, w = g["hb"], g["hc"], g["ht"], g["ws"], g["dc"], g["w"]
         zb = 0.5 * hb
         z_b = hb * zl
-        w_b = w * hb * wl
+        # mirror: under the chamber the bottom wall is the top wall's mirror (a membrane,
+        # counted with the top wall); only its strips under the side walls and its share of
+        # the end blocks stay uniaxial
+        w_b = ((2.0 * ws * dc + 2.0 * g["df"] * w) if o.mirror else w) * hb * wl
         z_w = jnp.concatenate([hb + (hc + ht) * zl2, hb + hc + ht * zl])
         w_w = jnp.concatenate([2.0 * g["df"] * w * (hc + ht) * wl2, dc * 2.0 * ws * ht * wl])
         lb_ = 1.0 + e + k * (z_b - zb)
@@ -445,6 +456,9 @@ def cell_kernel(wall_law: str, bottom_law: str, options: RomOptions = RomOptions
         A = a_top**2 * jnp.sum(wy * seg[0])
         M = a_top**3 * jnp.sum(wy * seg[1])
         dv += A * (1.0 + e + k * (z_top - zb)) + k * M
+        if o.mirror:
+            # the bottom wall's mirrored segment hangs below the chamber floor
+            dv += A * (1.0 + e + k * (hb - zb)) - k * M
         wy, gy, _ = _taper_nodes(o, dc, 2.0 * a_s)
         segs = _segment_pack(phi_s * gy)
         As = a_s**2 * jnp.sum(wy * segs[0])
@@ -460,7 +474,7 @@ def cell_kernel(wall_law: str, bottom_law: str, options: RomOptions = RomOptions
         u = jnp.sum(w * w_bot(I1, I2, th))
         for key in ("solid", "top", "side"):
             I1, I2, w, _ = f[key]
-            u += jnp.sum(w * w_wall(I1, I2, th))
+            u += (2.0 if o.mirror and key == "top" else 1.0) * jnp.sum(w * w_wall(I1, I2, th))
         if o.side_lean:
             u += u_hinge(full(qf)[4], th)
         return u
@@ -488,7 +502,7 @@ def cell_kernel(wall_law: str, bottom_law: str, options: RomOptions = RomOptions
     def u_top(x: Any, th: Any) -> Any:
         psi = x[3] if o.side_lean else 0.0
         I1, I2, w, _ = top_fields(x[0], x[1], x[2], th, psi)
-        return jnp.sum(w * w_wall(I1, I2, th))
+        return (2.0 if o.mirror else 1.0) * jnp.sum(w * w_wall(I1, I2, th))
 
     def u_side(x: Any, th: Any) -> Any:
         psi = x[3] if o.side_lean else 0.0

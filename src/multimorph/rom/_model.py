@@ -24,7 +24,7 @@ from multimorph.rom._continuation import (
     raw_path_from_arrays,
 )
 
-__all__ = ["DEFAULT_SETTINGS", "cell_theta", "material_theta", "solve_cell"]
+__all__ = ["DEFAULT_SETTINGS", "cell_theta", "material_theta", "options_for", "solve_cell"]
 
 #: Step control of the cell tracer: coordinates (κd, φt, φs, e, ψ) and p = P/μ scaled so that
 #: one unit of arc length is about a radian of bulge or bend, or 0.2 μ of pressure. A Newton
@@ -35,6 +35,15 @@ __all__ = ["DEFAULT_SETTINGS", "cell_theta", "material_theta", "solve_cell"]
 DEFAULT_SETTINGS = TracerSettings(q_scale=(1.0, 1.0, 1.0, 0.1, 1.0), p_scale=0.2, ds0=0.02,
                                   ds_max=0.12, n_steps=600, n_newton=8, tol=1e-9,
                                   step_tol=1e-4)
+
+
+def options_for(cell: CellGeometry, options: RomOptions | None = None) -> RomOptions:
+    """The model options for ``cell``: ``options`` (default :class:`RomOptions`) with
+    ``mirror`` switched on for a mirror-symmetric (stretching) cell."""
+    opts = options or RomOptions()
+    if cell.symmetric and not opts.mirror:
+        opts = replace(opts, mirror=True)
+    return opts
 
 
 def material_theta(material: Material, mu: float) -> dict[str, float]:
@@ -133,7 +142,9 @@ def solve_cell(cell: CellGeometry, p_max: float, *, options: RomOptions | None =
     p_max : float
         Largest gauge pressure to trace to (Pa).
     options : RomOptions, optional
-        Modelling switches (rigid walls/bottom, end taper, wall bending, quadrature).
+        Modelling switches (rigid walls/bottom, end taper, wall bending, quadrature);
+        ``mirror`` is switched on for a symmetric cell (``cell.symmetric``), whose Pc and Ph
+        are then read on the axial stretch.
     settings : TracerSettings, optional
         Step control (defaults to :data:`DEFAULT_SETTINGS`).
 
@@ -158,7 +169,7 @@ def solve_cell(cell: CellGeometry, p_max: float, *, options: RomOptions | None =
     >>> r.characteristic.critical_kind
     'max_slope'
     """
-    opts = options or RomOptions()
+    opts = options_for(cell, options)
     st = settings or DEFAULT_SETTINGS
     p_max = _check_pmax(p_max)
     assert cell.bottom_material is not None
@@ -185,7 +196,7 @@ def solve_cell(cell: CellGeometry, p_max: float, *, options: RomOptions | None =
     path = path_from_raw(cell, raw, q, meas)
     return build_response(
         path, length=cell.length, shear_modulus=mu, backend="rom",
-        break_stretch=cell.material.break_stretch,
+        break_stretch=cell.material.break_stretch, signal=cell.signal,
         meta={"model": "cell-ritz", "coordinates": list(COORDINATES),
               "options": opts.__dict__.copy(), "points": len(raw.p),
               "rejected_steps": raw.n_rejected, "evaluations": raw.n_eval,

@@ -51,7 +51,7 @@ from multimorph.response import EquilibriumPath
 from multimorph.rom._cell_energy import COORDINATES, GEOMETRY_KEYS, RomOptions, cell_kernel
 from multimorph.rom._continuation import TracerSettings
 from multimorph.rom._kernels import solve_small
-from multimorph.rom._model import DEFAULT_SETTINGS, cell_theta, free_settings
+from multimorph.rom._model import DEFAULT_SETTINGS, cell_theta, free_settings, options_for
 
 __all__ = ["LENGTHS", "PathSensitivity", "characteristic_sensitivity", "path_sensitivity"]
 
@@ -172,7 +172,8 @@ def path_sensitivity(cell: CellGeometry, path: EquilibriumPath, *,
         Its equilibrium path from the reduced model, with the coordinates in
         ``path.extra["q"]`` (as :func:`~multimorph.rom.solve_cell` returns it; pressure in Pa).
     options : RomOptions, optional
-        The model options the path was traced with (default options).
+        The model options the path was traced with (default options; ``mirror`` for a
+        symmetric cell, as :func:`~multimorph.rom.solve_cell` traces it).
     settings : TracerSettings, optional
         Only its coordinate scales are used, to make the bordered system well scaled.
 
@@ -198,7 +199,7 @@ def path_sensitivity(cell: CellGeometry, path: EquilibriumPath, *,
     >>> s.curvature.shape
     (76, 7)
     """
-    opts = options or RomOptions()
+    opts = options_for(cell, options)
     st = settings or DEFAULT_SETTINGS
     q = path.extra.get("q") if path.extra else None
     if q is None or np.asarray(q).ndim != 2 or np.asarray(q).shape[1] != len(COORDINATES):
@@ -247,7 +248,7 @@ def path_sensitivity(cell: CellGeometry, path: EquilibriumPath, *,
 
 def characteristic_sensitivity(path: EquilibriumPath, sensitivity: PathSensitivity,
                                lengths: np.ndarray, *, rel_step: float = 1e-6,
-                               ) -> dict[str, np.ndarray | None]:
+                               signal: str = "curvature") -> dict[str, np.ndarray | None]:
     """dPc/dG and dPh/dG (Pa/m) of the discrete estimators on the linearised path.
 
     The estimators of :func:`~multimorph.response.characteristic_pressures` (limit point or
@@ -266,6 +267,8 @@ def characteristic_sensitivity(path: EquilibriumPath, sensitivity: PathSensitivi
         The cell's lengths G (m), in :data:`LENGTHS` order (sets the step of each column).
     rel_step : float
         Relative step of the central difference of the estimator.
+    signal : {"curvature", "axial_stretch"}
+        What Pc and Ph are read on (``cell.signal``: the axial stretch of a symmetric cell).
 
     Returns
     -------
@@ -281,8 +284,8 @@ def characteristic_sensitivity(path: EquilibriumPath, sensitivity: PathSensitivi
         h = rel_step * G[j]
         e = np.zeros(len(LENGTHS))
         e[j] = h
-        cp = characteristic_pressures(sensitivity.perturbed(path, e))
-        cm = characteristic_pressures(sensitivity.perturbed(path, -e))
+        cp = characteristic_pressures(sensitivity.perturbed(path, e), signal=signal)
+        cm = characteristic_pressures(sensitivity.perturbed(path, -e), signal=signal)
         for key in ("critical", "hardening"):
             col = out[key]
             a, b = getattr(cp, key), getattr(cm, key)
