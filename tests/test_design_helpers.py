@@ -35,7 +35,8 @@ def standin_cell(cell, p_max):
     pre = 0.05 * p / ph
     if symmetric:
         kappa = 0 * p
-        stretch = 1 + (0.1 + 0.6 * share) * (step + pre)
+        # like the mirror model: a symmetric cell has stretched ~50-180 % at its knee
+        stretch = 1 + (0.5 + 1.2 * share) * (step + pre)
     else:
         kappa = (0.4 + 1.2 * share) * (step + pre) / cell.length
         stretch = 1 + 0.02 * step

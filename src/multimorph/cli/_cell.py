@@ -29,6 +29,8 @@ def cell_summary(response: Any) -> dict[str, Any]:
         "failure_pressure": ch.failure,
         "critical_kind": ch.critical_kind,
         "curvature_at": dict(ch.curvature_at),
+        "signal": ch.signal,
+        "axial_stretch": path.axial_stretch.tolist(),
         "shear_modulus": response.shear_modulus,
         "length": d,
         "volume": path.volume.tolist(),
@@ -47,25 +49,31 @@ def _plot(response: Any, file: Path, title: str) -> None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import numpy as np
 
     p, r = response.path, response
     ch = r.characteristic
     mu, d = r.shear_modulus, r.length
+    stretch = ch.signal == "axial_stretch"      # a symmetric cell: plot what activates
+    sig, scale = ("axial_stretch", 1.0) if stretch else ("curvature", d)
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4), constrained_layout=True)
-    a1.plot(p.pressure / 1e3, p.curvature, "-", color="0.6", lw=1, label="equilibrium path")
-    a1.plot(r.loading.pressure / 1e3, r.loading.curvature, "C0-", lw=2, label="loading")
-    a2.plot(p.pressure / mu, p.curvature * d, "C0-", lw=2)
+    a1.plot(p.pressure / 1e3, getattr(p, sig), "-", color="0.6", lw=1,
+            label="equilibrium path")
+    a1.plot(r.loading.pressure / 1e3, getattr(r.loading, sig), "C0-", lw=2, label="loading")
+    a2.plot(p.pressure / mu, getattr(p, sig) * scale, "C0-", lw=2)
     for key, value, color in (("Pc", ch.critical, "C3"), ("Ph", ch.hardening, "C2")):
         if value is None:
             continue
-        kap = ch.curvature_at["critical" if key == "Pc" else "hardening"]
+        kap = (float(np.interp(value, r.loading.pressure, r.loading.axial_stretch))
+               if stretch else ch.curvature_at["critical" if key == "Pc" else "hardening"])
         a1.axvline(value / 1e3, color=color, ls="--", lw=1)
         a1.plot([value / 1e3], [kap], "o", color=color, label=f"{key} = {value / 1e3:.3g} kPa")
         a2.axvline(value / mu, color=color, ls="--", lw=1)
-        a2.plot([value / mu], [kap * d], "o", color=color,
+        a2.plot([value / mu], [kap * scale], "o", color=color,
                 label=f"{key}/μ = {value / mu:.3g}")
-    a1.set(xlabel="pressure P (kPa)", ylabel="curvature κ (1/m)", title=title)
-    a2.set(xlabel="P/μ (-)", ylabel="κd (-)", title="dimensionless")
+    a1.set(xlabel="pressure P (kPa)",
+           ylabel="axial stretch λ (-)" if stretch else "curvature κ (1/m)", title=title)
+    a2.set(xlabel="P/μ (-)", ylabel="λ (-)" if stretch else "κd (-)", title="dimensionless")
     a1.legend(fontsize=8)
     a2.legend(fontsize=8)
     fig.savefig(file, dpi=120)
@@ -123,8 +131,12 @@ def cell(
     console.print(f"  critical pressure Pc ({ch.critical_kind}): {kpa(ch.critical)}")
     console.print(f"  hardening pressure Ph: {kpa(ch.hardening)}")
     console.print(f"  failure pressure: {kpa(ch.failure)}")
-    console.print(f"  max curvature {max(data['curvature']):.4g} 1/m, bend angle "
-                  f"{data['max_bend_angle']:.3g} rad per cell")
+    if ch.signal == "axial_stretch":
+        console.print(f"  symmetric (stretching) cell: Pc and Ph read on the axial stretch; "
+                      f"max axial stretch {max(data['axial_stretch']):.4g}")
+    else:
+        console.print(f"  max curvature {max(data['curvature']):.4g} 1/m, bend angle "
+                      f"{data['max_bend_angle']:.3g} rad per cell")
     console.print(f"  wrote {folder}/response.json, {folder}/curvature.png")
 
 
