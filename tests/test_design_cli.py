@@ -34,24 +34,38 @@ def run(app, *args):
 
 def test_design_writes_device_report_and_plots(app, tmp_path):
     out = tmp_path / "g"
-    r = run(app, EXAMPLES / "target_gripper.toml", "--out", out, "--budget", 900,
+    r = run(app, EXAMPLES / "target_gripper.toml", "--out", out, "--budget", 2400,
             "--population", 16, "--seed", 3, "--robustness", 24, "--json")
     assert r.exit_code == 0, r.output
     data = json.loads(r.stdout)
     assert data["feasible"] is True and data["explanation"] == []
+    # the twister's 30-50 kPa band is wider than one module spans: two graded parts
+    g = data["graded"]["twister"]
+    assert g["parts"] == ["twister-1", "twister-2"] and g["predicted"]["met"] is True
+    assert g["predicted"]["start_pressure"] == pytest.approx(30e3, rel=0.1)
+    assert g["predicted"]["end_pressure"] == pytest.approx(50e3, rel=0.1)
     assert data["robustness"]["n_samples"] == 24 and 0 <= data["robustness"]["p_order"] <= 1
     for f in ("device.toml", "report.md", "report.json", "sequence.png", "convergence.png",
               "robustness.png"):
         assert (out / f).is_file(), f
     dev = device_from_spec(tomllib.loads((out / "device.toml").read_text()))
     res = simulate_device(dev, cell_model=standin_cell)
-    assert res.sequence.order == ["fingers", "twister"]
-    assert "Robustness (Monte Carlo)" in (out / "report.md").read_text()
+    assert res.sequence.order == ["fingers", "twister-1", "twister-2"]
+    md = (out / "report.md").read_text()
+    assert "Robustness (Monte Carlo)" in md and "Graded stages" in md
     # same seed, same report (timings aside)
-    r2 = run(app, EXAMPLES / "target_gripper.toml", "--out", tmp_path / "g2", "--budget", 900,
+    r2 = run(app, EXAMPLES / "target_gripper.toml", "--out", tmp_path / "g2", "--budget", 2400,
              "--population", 16, "--seed", 3, "--robustness", 24, "--json")
     d2 = json.loads(r2.stdout)
     assert d2["designs"] == data["designs"] and d2["robustness"] == data["robustness"]
+
+
+def test_no_graded_keeps_one_module_per_stage(app, tmp_path):
+    r = run(app, EXAMPLES / "target_gripper.toml", "--out", tmp_path / "n", "--budget", 900,
+            "--population", 16, "--seed", 3, "--robustness", 0, "--no-graded", "--json")
+    assert r.exit_code == 0, r.output
+    data = json.loads(r.stdout)
+    assert data["graded"] == {} and [s["name"] for s in data["stages"]] == ["fingers", "twister"]
 
 
 def test_infeasible_exits_3_with_explanation(app, tmp_path):

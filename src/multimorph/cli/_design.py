@@ -47,6 +47,9 @@ def design_command(
     gradient: Annotated[bool, typer.Option(
         "--gradient/--no-gradient", help="Refine the best global design with IFT gradients "
         "through the traced equilibrium paths before the compass search.")] = True,
+    graded: Annotated[bool, typer.Option(
+        "--graded/--no-graded", help="Realise a stage whose band is wider than one module "
+        "can span (Ph/Pc > 1.4) by graded modules of the same kind in series.")] = True,
     as_json: Annotated[bool, typer.Option("--json", help="Print the JSON report.")] = False,
 ) -> None:
     """Design a device whose predicted sequence of motions meets a target.
@@ -57,6 +60,7 @@ def design_command(
         CountingModel,
         DesignSettings,
         design,
+        graded_target,
         rom_batch_model,
         single_cell,
         target_from_spec,
@@ -89,7 +93,8 @@ def design_command(
                 raise MultimorphError(f"--verify-fe: {why}")
         settings = DesignSettings(budget=budget, population=population, seed=seed,
                                   robust_samples=(16 if robust else 0), wall_tolerance=tol,
-                                  default_cv=default_cv, gradient=gradient)
+                                  default_cv=default_cv, gradient=gradient, graded=graded)
+        searched = graded_target(spec, settings.graded_ratio) if graded else spec
         from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
 
         with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
@@ -101,8 +106,9 @@ def design_command(
 
             # one model, one batch shape for search, Monte Carlo and the final simulation
             model = CountingModel(rom_batch_model(vectorised),
-                                  pad_to=population * len(spec.stages))
+                                  pad_to=population * len(searched.stages))
             result = design(spec, model=model, settings=settings, progress=progress)
+            spec = result.target            # the searched stages (graded parts included)
             rob = None
             if result.best is not None and result.feasible and robustness > 0:
                 bar.update(task, description="robustness (Monte Carlo)")
@@ -167,6 +173,19 @@ def _print_summary(result: Any, rob: Any, folder: Path, files: list[str]) -> Non
         for e in result.explanation:
             console.print(f"  - {e}", highlight=False)
     best = result.best
+    for name, g in result.graded_stages().items():
+        pr = g.get("predicted")
+        if pr is None:
+            continue
+        kind = next(s.kind for s in t.stages if s.name == g["parts"][0])
+        m = pr["magnitude"]
+        mag = ("—" if m is None else f"{m * 100:.3g} %" if kind == "stretch"
+               else f"{math.degrees(m):.3g} deg")
+        w = g["wanted"]
+        console.print(f"  {name}: graded ({' + '.join(g['parts'])}): starts "
+                      f"{_kpa(pr['start_pressure'])} (wanted {_kpa(w['start_pressure'])}), "
+                      f"completes {_kpa(pr['end_pressure'])} (wanted {_kpa(w['end_pressure'])}),"
+                      f" {mag}: {'met' if pr['met'] else 'not met'}", highlight=False)
     if best is not None:
         for st, sr in zip(t.stages, best.stages, strict=True):
             mag = (f"{sr.magnitude * 100:.3g} %" if st.kind == "stretch"
@@ -180,6 +199,10 @@ def _print_summary(result: Any, rob: Any, folder: Path, files: list[str]) -> Non
         console.print(f"  robustness: P(order holds) = {rob.p_order:.1%}, P(all targets met) "
                       f"= {rob.p_meets:.1%} over {rob.n_samples} samples", highlight=False)
     console.print(f"files in {folder}: {', '.join(files)}")
+
+
+def _kpa(p: float | None) -> str:
+    return "—" if p is None else f"{p / 1e3:.4g} kPa"
 
 
 def register(app: typer.Typer) -> None:

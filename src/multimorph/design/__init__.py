@@ -25,15 +25,18 @@ from multimorph.design._space import (
     device_length,
 )
 from multimorph.design._target import (
+    GRADED_RATIO,
     STAGE_KINDS,
     Constraints,
     Stage,
     TargetSpec,
     Tolerance,
+    graded_target,
     target_from_spec,
 )
 
 __all__ = [
+    "GRADED_RATIO",
     "N_VARS",
     "ROM_BATCH_NAMES",
     "STAGE_KINDS",
@@ -57,6 +60,7 @@ __all__ = [
     "device_length",
     "evaluate_one",
     "evaluate_population",
+    "graded_target",
     "material_stderr",
     "robustness",
     "rom_batch_model",

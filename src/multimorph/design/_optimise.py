@@ -31,7 +31,7 @@ from multimorph.design._evaluate import Evaluation, evaluate_candidates
 from multimorph.design._gradient import GradientStep, gradient_refine
 from multimorph.design._models import BatchModel, CountingModel, rom_batch_model
 from multimorph.design._space import N_VARS, VAR_NAMES, SearchSpace
-from multimorph.design._target import TargetSpec
+from multimorph.design._target import GRADED_RATIO, TargetSpec, graded_target
 from multimorph.errors import SpecError
 
 __all__ = ["DesignResult", "DesignSettings", "design", "evaluate_population"]
@@ -71,6 +71,12 @@ class DesignSettings:
     gradient_iterations : int
         Gradient iterations at most (each: one Jacobian, no model call, and one batched call
         of ``len(dampings)`` trial designs).
+    graded : bool
+        Realise a stage whose band is wider than ``graded_ratio`` (Ph/Pc) by graded modules
+        in series (:func:`multimorph.design.graded_target`); ``False`` asks one module of
+        identical cells to span it.
+    graded_ratio : float
+        Widest band end/start of one module when grading.
     """
 
     budget: int = 1200
@@ -85,6 +91,8 @@ class DesignSettings:
     batch_cells: int | None = None
     gradient: bool = True
     gradient_iterations: int = 12
+    graded: bool = True
+    graded_ratio: float = GRADED_RATIO
 
     def __post_init__(self) -> None:
         if self.population < 4:
@@ -93,6 +101,8 @@ class DesignSettings:
             raise SpecError(f"budget must be positive, got {self.budget}")
         if not 0 <= self.refine_fraction < 1:
             raise SpecError(f"refine_fraction must lie in [0, 1), got {self.refine_fraction}")
+        if not self.graded_ratio > 1.0:
+            raise SpecError(f"graded_ratio must exceed 1, got {self.graded_ratio}")
         if self.gradient_iterations < 0:
             raise SpecError(f"gradient_iterations must be non-negative, got "
                             f"{self.gradient_iterations}")
@@ -118,6 +128,9 @@ class DesignResult:
         Best objective after each model call.
     gradient_steps : tuple of GradientStep
         Log of the gradient refinement (empty when skipped).
+    wanted : TargetSpec or None
+        The target as written when some of its stages were graded (``target`` then holds
+        the parts that were searched); ``None`` when nothing was graded.
     """
 
     target: TargetSpec
@@ -132,6 +145,7 @@ class DesignResult:
     wall_time: float
     robust_scores: dict[int, float] = field(default_factory=dict)
     gradient_steps: tuple[GradientStep, ...] = ()
+    wanted: TargetSpec | None = None
 
     @property
     def best(self) -> Evaluation | None:
@@ -152,7 +166,40 @@ class DesignResult:
             "gradient": [{"objective_before": g.objective_before,
                           "objective_after": g.objective_after, "trials": g.trials}
                          for g in self.gradient_steps],
+            "graded": self.graded_stages(),
         }
+
+    def graded_stages(self) -> dict[str, Any]:
+        """Per graded stage of the wanted target: its parts and, for the best design, the
+        stage as a whole (start = first part's Pc, end = last part's Ph, magnitude = sum)
+        against what was wanted. Empty when nothing was graded."""
+        if self.wanted is None:
+            return {}
+        out: dict[str, Any] = {}
+        best = self.best
+        tol = self.target.tolerance
+        for st in self.wanted.stages:
+            idx = [i for i, s in enumerate(self.target.stages) if s.part_of == st.name]
+            if not idx:
+                continue
+            entry: dict[str, Any] = {
+                "parts": [self.target.stages[i].name for i in idx],
+                "wanted": {"start_pressure": st.start_pressure,
+                           "end_pressure": st.end_pressure, "magnitude": st.magnitude}}
+            if best is not None:
+                srs = [best.stages[i] for i in idx]
+                start, end = srs[0].start, srs[-1].end
+                mags = [s.magnitude for s in srs]
+                mag = None if any(m is None for m in mags) else float(sum(mags))
+                ok = (start is not None and end is not None and mag is not None
+                      and st.start_pressure is not None
+                      and abs(start / st.start_pressure - 1) <= tol.pressure
+                      and abs(end / st.end_pressure - 1) <= tol.pressure
+                      and abs(mag / abs(st.magnitude) - 1) <= tol.magnitude)
+                entry["predicted"] = {"start_pressure": start, "end_pressure": end,
+                                      "magnitude": mag, "met": bool(ok)}
+            out[st.name] = entry
+        return out
 
 
 def evaluate_population(space: SearchSpace, X: np.ndarray, model: Any) -> list[Evaluation]:
@@ -325,11 +372,17 @@ def design(target: TargetSpec, *, model: BatchModel | None = None,
     """
     s = settings or DesignSettings()
     t0 = time.perf_counter()
-    space = SearchSpace(target)
-    static = _static_checks(space)
+    # bounds that no design can meet, named by the stages as written
+    static = _static_checks(SearchSpace(target))
     if static:
         return DesignResult(target, s, False, [], static, {}, 0, 0, [],
                             time.perf_counter() - t0)
+    wanted = None
+    if s.graded:
+        parts = graded_target(target, s.graded_ratio)
+        if parts is not target:
+            wanted, target = target, parts
+    space = SearchSpace(target)
     raw = model if model is not None else rom_batch_model()
     counted = CountingModel(raw, pad_to=s.batch_cells or s.population * space.n_stages)
     rng = np.random.default_rng(s.seed)
@@ -352,7 +405,7 @@ def design(target: TargetSpec, *, model: BatchModel | None = None,
         progress(counted.evaluations, s.budget, "reachability")
     if reasons:
         return DesignResult(target, s, False, [], reasons, reach, counted.evaluations,
-                            counted.calls, history, time.perf_counter() - t0)
+                            counted.calls, history, time.perf_counter() - t0, wanted=wanted)
 
     # global stage: differential evolution
     n, dim = s.population, space.dim
@@ -439,4 +492,4 @@ def design(target: TargetSpec, *, model: BatchModel | None = None,
     explanation = [] if feasible else _explain(space, best)
     return DesignResult(target, s, feasible, top, explanation, reach, counted.evaluations,
                         counted.calls, history, time.perf_counter() - t0, robust_scores,
-                        tuple(steps))
+                        tuple(steps), wanted=wanted)

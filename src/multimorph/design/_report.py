@@ -135,6 +135,24 @@ def report_markdown(result: DesignResult, robust: RobustnessReport | None = None
                      f"{_fmt_p(sr.start)} | {_fmt_p(st.end_pressure)} | {_fmt_p(sr.end)} | "
                      f"{_fmt_mag(st.kind, abs(st.magnitude))} | "
                      f"{_fmt_mag(st.kind, sr.magnitude)} | {sf} |")
+        graded = result.graded_stages()
+        if graded:
+            L += ["", f"Graded stages (bands wider than Ph/Pc = {result.settings.graded_ratio:.3g} "
+                  "are realised by modules of the same kind in series, each with its own "
+                  "cell; the stage starts at its first part's Pc and completes at its last "
+                  "part's Ph):", "",
+                  "| stage | parts | wanted start | start | wanted end | end | wanted | "
+                  "predicted | met |", "|---|---|---|---|---|---|---|---|---|"]
+            kinds = {s.name: s.kind for s in t.stages}
+            for name, g in graded.items():
+                w, pr = g["wanted"], g.get("predicted", {})
+                kind = kinds[g["parts"][0]]
+                L.append(f"| {name} | {', '.join(g['parts'])} | "
+                         f"{_fmt_p(w['start_pressure'])} | {_fmt_p(pr.get('start_pressure'))} "
+                         f"| {_fmt_p(w['end_pressure'])} | {_fmt_p(pr.get('end_pressure'))} | "
+                         f"{_fmt_mag(kind, abs(w['magnitude']))} | "
+                         f"{_fmt_mag(kind, pr.get('magnitude'))} | "
+                         f"{'yes' if pr.get('met') else 'no'} |")
         L += ["", "Cells of the best design:", ""]
         for st, c, tilt in zip(t.stages, best.candidate.cells, best.candidate.tilts,
                                strict=True):

@@ -1,0 +1,102 @@
+"""Graded stages: a band wider than one module can span is realised by modules in series.
+
+A module of identical cells activates over a narrow band (the reduced model's cells span
+Ph/Pc ≈ 1.2-1.3, 3D FE's less), so a twister that should start at 30 kPa and finish at
+50 kPa (Ph/Pc = 1.67) is built from graded parts, each starting where the previous one
+completes (:func:`multimorph.design.graded_target`).
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import replace
+from pathlib import Path
+
+import pytest
+
+from multimorph.design import (
+    GRADED_RATIO,
+    DesignSettings,
+    design,
+    graded_target,
+    target_from_spec,
+)
+from multimorph.errors import SpecError
+from test_design_helpers import STANDIN
+
+EXAMPLES = Path(__file__).parents[1] / "examples"
+
+
+def load(name):
+    return target_from_spec(tomllib.loads((EXAMPLES / name).read_text()))
+
+
+def test_wide_band_splits_geometrically_into_parts():
+    t = load("target_gripper.toml")
+    g = graded_target(t)
+    assert [s.name for s in g.stages] == ["fingers", "twister-1", "twister-2"]
+    fingers, a, b = g.stages
+    assert fingers == t.stages[0]                      # a single pressure: kept whole
+    tw = t.stages[1]
+    assert a.start_pressure == pytest.approx(30e3) and b.end_pressure == pytest.approx(50e3)
+    assert a.end_pressure == pytest.approx(b.start_pressure)
+    assert a.end_pressure == pytest.approx(math.sqrt(30e3 * 50e3))   # equal ratios
+    assert a.magnitude + b.magnitude == pytest.approx(tw.magnitude)
+    for p in (a, b):
+        assert p.part_of == "twister" and p.kind == "twist"
+        assert p.shaft_radius == tw.shaft_radius and p.count == tw.count
+        assert p.end_pressure / p.start_pressure <= GRADED_RATIO
+
+
+def test_narrow_bands_and_parallel_copies_are_kept():
+    for name in ("target_jar_lifter.toml", "target_double_curvature.toml"):
+        t = load(name)                                  # bands 1.25 and 1.24
+        assert graded_target(t) is t
+    t = load("target_three_stage.toml")
+    assert [s.name for s in graded_target(t).stages] == ["extend", "curl-1", "curl-2", "turn"]
+    fingers = replace(load("target_gripper.toml").stages[0], start_pressure=10e3)
+    t = replace(t, stages=(fingers,))
+    assert graded_target(t) is t                        # count = 3: never split
+
+
+def test_part_count_follows_the_ratio():
+    t = load("target_gripper.toml")
+    g = graded_target(t, max_ratio=1.2)                 # 50/30 = 1.67 needs 3 parts of 1.19
+    parts = [s for s in g.stages if s.part_of == "twister"]
+    assert len(parts) == 3
+    assert all(s.end_pressure / s.start_pressure == pytest.approx(1.6667 ** (1 / 3), rel=1e-3)
+               for s in parts)
+    with pytest.raises(SpecError, match="graded_ratio"):
+        graded_target(t, max_ratio=1.0)
+    with pytest.raises(SpecError, match="graded_ratio"):
+        DesignSettings(graded_ratio=0.9)
+
+
+def test_part_names_must_not_collide():
+    t = load("target_gripper.toml")
+    clash = replace(t.stages[0], name="twister-1")
+    with pytest.raises(SpecError, match=r"twister-1.*collide"):
+        graded_target(replace(t, stages=(clash, t.stages[1])))
+
+
+def test_graded_design_reports_the_stage_as_a_whole():
+    """The stand-in cell spans Ph/Pc = 1.4 exactly, so a 1.25 ratio per part is reachable; the
+    whole stage starts at its first part's Pc and completes at its last part's Ph."""
+    t = load("target_gripper.toml")
+    r = design(t, model=STANDIN, settings=DesignSettings(budget=2400, population=16, seed=3))
+    assert r.feasible, r.explanation
+    assert r.wanted is t and [s.name for s in r.target.stages][1:] == ["twister-1", "twister-2"]
+    g = r.graded_stages()["twister"]
+    best = r.best
+    a, b = best.stages[1], best.stages[2]
+    pr = g["predicted"]
+    assert pr["start_pressure"] == a.start and pr["end_pressure"] == b.end
+    assert pr["magnitude"] == pytest.approx(a.magnitude + b.magnitude)
+    assert pr["met"] is True
+    assert abs(pr["end_pressure"] / 50e3 - 1) <= 0.1 and abs(pr["start_pressure"] / 30e3 - 1) <= 0.1
+    # the device: the twister's parts in series on the main branch, the fingers at the tip
+    mods = {m.name: m for m in best.device.modules}
+    assert mods["twister-1"].end == pytest.approx(mods["twister-2"].start)
+    assert mods["fingers"].attach_to == "twister-2"
+    assert r.to_dict()["graded"]["twister"]["parts"] == ["twister-1", "twister-2"]
