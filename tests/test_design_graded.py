@@ -100,3 +100,9 @@ def test_graded_design_reports_the_stage_as_a_whole():
     assert mods["twister-1"].end == pytest.approx(mods["twister-2"].start)
     assert mods["fingers"].attach_to == "twister-2"
     assert r.to_dict()["graded"]["twister"]["parts"] == ["twister-1", "twister-2"]
+    # scored on the stage's ends and the hand-over between its parts, not on the boundary
+    d = best.distances
+    assert {"twister-1.start_pressure", "twister-2.end_pressure", "twister-2.handover"} <= set(d)
+    assert "twister-1.end_pressure" not in d and "twister-2.start_pressure" not in d
+    boundary = r.target.stages[2].start_pressure                  # √(30 · 50) kPa
+    assert d["twister-2.handover"] == pytest.approx((b.start - a.end) / boundary / 0.1)

@@ -7,7 +7,10 @@ For each stage (module) of a candidate, from its cell :class:`~multimorph.respon
   with the number of cells n chosen to give the wanted angle (capped by ``max_length``);
 - the safety factor: break stretch / peak stretch at the maximum pressure.
 
-Distances are relative errors divided by the tolerance (|e| ≤ 1 meets the target).
+Distances are relative errors divided by the tolerance (|e| ≤ 1 meets the target). The
+parts of a graded stage (``Stage.part_of``) are scored on the stage's own start (first part)
+and completion (last part), and on each later part's hand-over ``(Pc_k − Ph_{k−1})`` relative
+to its nominal boundary (``<part>.handover``), not on the intermediate boundaries.
 Constraint violations (stage order, separation, safety factor, device length) are relative
 amounts (> 0 violated). The objective is Σ e² + Σ (4 v / tol)² (+ 100 per stage whose Pc
 or Ph the model does not reach below the maximum pressure; + 10⁶ per stage whose cell the
@@ -171,6 +174,18 @@ def evaluate_one(target: TargetSpec, cand: Candidate, resps: Sequence[Any],
             else:
                 errs["start_pressure"] = (pc - st.start_pressure) / st.start_pressure
         errs["magnitude"] = (mag - abs(st.magnitude)) / abs(st.magnitude)
+        if st.part_of is not None:
+            # a graded stage: only its first part's start and its last part's completion
+            # are wanted pressures; in between, each part must take over where the previous
+            # one completes (no pause, no overlap beyond the pressure tolerance)
+            same = [s.part_of == st.part_of for s in target.stages]
+            if i + 1 < len(same) and same[i + 1]:
+                errs.pop("end_pressure", None)
+            if i > 0 and same[i - 1]:
+                errs.pop("start_pressure", None)
+                prev = stages[-1].end if stages else None
+                if pc is not None and prev is not None and st.start_pressure:
+                    errs["handover"] = (pc - prev) / st.start_pressure
         for k, e in errs.items():
             t = tol.magnitude if k == "magnitude" else tol.pressure
             dist[f"{st.name}.{k}"] = e / t
