@@ -31,3 +31,25 @@ def test_relative_differences_are_rom_minus_fe_over_fe() -> None:
     assert c.kappa_rel_max == pytest.approx(0.2, rel=1e-6)
     d = c.to_dict()
     assert set(d) >= {"critical_pressure", "hardening_pressure", "kappa"}
+
+
+def _stretching(scale: float, center: float, backend: str):
+    """A symmetric cell: no curvature, a ballooning axial stretch steepest at ``center``."""
+    P = np.linspace(0.0, 1.0, 201)
+    lam = 1 + scale * (np.tanh((P - center) / 0.08) + np.tanh(center / 0.08))
+    z = np.zeros_like(P)
+    path = EquilibriumPath(pressure=P, curvature=z, twist_rate=z, axial_stretch=lam,
+                           volume=1 + P, peak_stretch=1 + P, stable=np.ones_like(P, bool))
+    return build_response(path, length=0.02, shear_modulus=1.0, backend=backend,
+                          signal="axial_stretch")
+
+
+def test_symmetric_cells_compare_on_the_axial_stretch() -> None:
+    c = compare_responses(_stretching(0.5, 0.6, "rom"), _stretching(0.5, 0.3, "fe"))
+    assert c.signal == "axial_stretch"
+    assert c.pc_rom == pytest.approx(0.6, abs=0.01) and c.pc_fe == pytest.approx(0.3, abs=0.01)
+    assert c.pc_rel == pytest.approx(1.0, rel=0.05)            # the ROM balloons twice as late
+    assert c.kappa_rel_max is None                              # nothing bends
+    assert 0.5 < c.stretch_rel_max <= 1.0
+    d = c.to_dict()
+    assert d["signal"] == "axial_stretch" and len(d["axial_stretch"]["rom"]) == len(c.pressure)

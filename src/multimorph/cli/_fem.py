@@ -122,8 +122,11 @@ def fem(
 
             console.print(f"ROM vs FE: Pc {kpa(comparison.pc_rom)} vs {kpa(comparison.pc_fe)}"
                           f" ({rel(comparison.pc_rel)}), Ph {kpa(comparison.ph_rom)} vs "
-                          f"{kpa(comparison.ph_fe)} ({rel(comparison.ph_rel)}), max |Δκ|/κ "
-                          f"{rel(comparison.kappa_rel_max)}")
+                          f"{kpa(comparison.ph_fe)} ({rel(comparison.ph_rel)}), " + (
+                              f"on the axial stretch, max |Δλ|/(λ − 1) "
+                              f"{rel(comparison.stretch_rel_max)}"
+                              if comparison.signal == "axial_stretch" else
+                              f"max |Δκ|/κ {rel(comparison.kappa_rel_max)}"))
         console.print(f"files in {folder}/")
 
 

@@ -35,6 +35,13 @@ class Comparison:
         Curvature (1/m) on the observed loading curves at ``pressure``.
     kappa_rel_max : float or None
         Largest |κ_rom − κ_fe| relative to the largest |κ_fe| on the common range.
+    signal : str
+        What Pc and Ph were read on: ``"curvature"``, or ``"axial_stretch"`` for a
+        mirror-symmetric (stretching) cell, which does not bend.
+    stretch_rom, stretch_fe : ndarray
+        Axial stretch on the observed loading curves at ``pressure``.
+    stretch_rel_max : float or None
+        Largest |λ_rom − λ_fe| relative to the largest |λ_fe − 1|.
     """
 
     pc_rom: float | None
@@ -48,6 +55,10 @@ class Comparison:
     kappa_fe: np.ndarray
     kappa_rel_max: float | None
     meta: dict[str, Any] = field(default_factory=dict)
+    signal: str = "curvature"
+    stretch_rom: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    stretch_fe: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    stretch_rel_max: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -55,6 +66,10 @@ class Comparison:
             "hardening_pressure": {"rom": self.ph_rom, "fe": self.ph_fe, "rel": self.ph_rel},
             "kappa": {"pressure": self.pressure.tolist(), "rom": self.kappa_rom.tolist(),
                       "fe": self.kappa_fe.tolist(), "rel_max": self.kappa_rel_max},
+            "signal": self.signal,
+            "axial_stretch": {"pressure": self.pressure.tolist(),
+                              "rom": self.stretch_rom.tolist(), "fe": self.stretch_fe.tolist(),
+                              "rel_max": self.stretch_rel_max},
             "meta": self.meta,
         }
 
@@ -69,9 +84,14 @@ def compare_responses(rom: Response, fe: Response, n: int = 25) -> Comparison:
     kf = np.interp(P, lf.pressure, lf.curvature)
     scale = float(np.max(np.abs(kf))) if len(kf) else 0.0
     krel = float(np.max(np.abs(kr - kf)) / scale) if scale > 0 else None
+    sr = np.interp(P, lr.pressure, lr.axial_stretch)
+    sf = np.interp(P, lf.pressure, lf.axial_stretch)
+    s_scale = float(np.max(np.abs(sf - 1.0))) if len(sf) else 0.0
+    srel = float(np.max(np.abs(sr - sf)) / s_scale) if s_scale > 0 else None
     return Comparison(cr.critical, cf.critical, cr.hardening, cf.hardening,
                       _rel(cr.critical, cf.critical), _rel(cr.hardening, cf.hardening),
-                      P, kr, kf, krel)
+                      P, kr, kf, krel, signal=cr.signal, stretch_rom=sr, stretch_fe=sf,
+                      stretch_rel_max=srel)
 
 
 def compare_cell(geometry: CellGeometry, p_max: float, fe_settings: Any = None,
