@@ -100,6 +100,9 @@ def test_graded_design_reports_the_stage_as_a_whole():
     assert mods["twister-1"].end == pytest.approx(mods["twister-2"].start)
     assert mods["fingers"].attach_to == "twister-2"
     assert r.to_dict()["graded"]["twister"]["parts"] == ["twister-1", "twister-2"]
+    # the report states how far each module keeps moving after Ph (monotone stand-in curves)
+    assert all(s.magnitude_at_max >= s.magnitude - 1e-12 for s in best.stages)
+    assert "magnitude_at_max_pressure" in best.to_dict()["stages"][0]
     # scored on the stage's ends and the hand-over between its parts, not on the boundary
     d = best.distances
     assert {"twister-1.start_pressure", "twister-2.end_pressure", "twister-2.handover"} <= set(d)

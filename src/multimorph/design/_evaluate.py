@@ -61,12 +61,16 @@ class StageResult:
     peak_stretch: float | None
     failure: float | None
     errors: dict[str, float] = field(default_factory=dict)
+    magnitude_at_max: float | None = None
+    """The motion at the maximum pressure: how far the stage keeps moving after it has
+    'completed' at Ph (strain hardening slows a module down; it does not stop it)."""
 
     def to_dict(self) -> dict[str, Any]:
         return {"name": self.name, "kind": self.kind, "start_pressure": self.start,
                 "end_pressure": self.end, "magnitude": self.magnitude, "cells": self.n_cells,
                 "safety_factor": self.safety_factor, "peak_stretch": self.peak_stretch,
-                "failure_pressure": self.failure, "relative_errors": dict(self.errors)}
+                "failure_pressure": self.failure, "relative_errors": dict(self.errors),
+                "magnitude_at_max_pressure": self.magnitude_at_max}
 
 
 @dataclass(frozen=True, eq=False)
@@ -191,7 +195,9 @@ def evaluate_one(target: TargetSpec, cand: Candidate, resps: Sequence[Any],
             dist[f"{st.name}.{k}"] = e / t
         if sf is not None:
             viol[f"{st.name}.safety_factor"] = (con.min_safety_factor - sf) / con.min_safety_factor
-        stages.append(StageResult(st.name, st.kind, pc, ph, mag, n, sf, peak, ch.failure, errs))
+        at_max = _interp(p, m, pmax) * (n if st.kind != "stretch" else 1) if len(p) else None
+        stages.append(StageResult(st.name, st.kind, pc, ph, mag, n, sf, peak, ch.failure, errs,
+                                  at_max))
     # sequence constraints between consecutive stages
     for a, b in itertools.pairwise(stages):
         key = f"{a.name}->{b.name}"

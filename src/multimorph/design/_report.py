@@ -126,15 +126,18 @@ def report_markdown(result: DesignResult, robust: RobustnessReport | None = None
         L += ["## Best design vs target", "",
               f"Tolerances: pressure ±{t.tolerance.pressure:.0%}, magnitude "
               f"±{t.tolerance.magnitude:.0%}.", "",
+              "Predicted magnitudes are at Ph; the last column is the motion at the maximum "
+              "pressure (hardening slows a module after Ph, it does not stop it).", "",
               "| stage | kind | cells | wanted start | predicted Pc | wanted end | predicted Ph "
-              "| wanted | predicted | safety factor |",
-              "|---|---|---|---|---|---|---|---|---|---|"]
+              "| wanted | predicted | safety factor | at max pressure |",
+              "|---|---|---|---|---|---|---|---|---|---|---|"]
         for st, sr in zip(t.stages, best.stages, strict=True):
             sf = "—" if sr.safety_factor is None else f"{sr.safety_factor:.2f}"
             L.append(f"| {st.name} | {st.kind} | {sr.n_cells} | {_fmt_p(st.start_pressure)} | "
                      f"{_fmt_p(sr.start)} | {_fmt_p(st.end_pressure)} | {_fmt_p(sr.end)} | "
                      f"{_fmt_mag(st.kind, abs(st.magnitude))} | "
-                     f"{_fmt_mag(st.kind, sr.magnitude)} | {sf} |")
+                     f"{_fmt_mag(st.kind, sr.magnitude)} | {sf} | "
+                     f"{_fmt_mag(st.kind, sr.magnitude_at_max)} |")
         graded = result.graded_stages()
         if graded:
             L += ["", f"Graded stages (bands wider than Ph/Pc = {result.settings.graded_ratio:.3g} "
