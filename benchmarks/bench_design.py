@@ -41,6 +41,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--vectorised", action="store_true",
                     help="vmapped ROM batches (default: loop of single-design traces)")
+    ap.add_argument("--no-graded", dest="graded", action="store_false",
+                    help="one module per stage (default: wide bands become graded parts)")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
 
@@ -52,6 +54,7 @@ def main(argv: list[str] | None = None) -> int:
         SearchSpace,
         design,
         evaluate_population,
+        graded_target,
         robustness,
         rom_batch_model,
         target_from_spec,
@@ -61,8 +64,10 @@ def main(argv: list[str] | None = None) -> int:
     target = target_from_spec(load_toml(args.target))
     if len(target.stages) != 2:
         print(f"note: {args.target} has {len(target.stages)} stages", file=sys.stderr)
-    settings = DesignSettings(budget=args.budget, population=args.population, seed=args.seed)
-    space = SearchSpace(target)
+    settings = DesignSettings(budget=args.budget, population=args.population, seed=args.seed,
+                              graded=args.graded)
+    # the stages that are searched (a wide band becomes graded modules in series)
+    space = SearchSpace(graded_target(target, settings.graded_ratio) if args.graded else target)
     model = CountingModel(rom_batch_model(args.vectorised),
                           pad_to=settings.population * space.n_stages)
     t0 = time.perf_counter()
@@ -95,12 +100,13 @@ def main(argv: list[str] | None = None) -> int:
     rob = None
     if result.best is not None and args.samples > 0:
         t0 = time.perf_counter()
-        rob = robustness(target, result.best, n_samples=args.samples, seed=args.seed,
+        rob = robustness(result.target, result.best, n_samples=args.samples, seed=args.seed,
                          model=model)
         t_rob = time.perf_counter() - t0
 
     row = {
         "target": target.name,
+        "modules": space.n_stages,
         "machine": f"{platform.machine()} {os.cpu_count()} cores, {platform.python_version()}",
         "warmup_s": t_warm,
         "design_s": t_design,
@@ -121,7 +127,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{'warm-up':<12} {t_warm:9.1f}s  JIT of the batched ROM at the optimiser's shape")
     print(f"{'design':<12} {t_design:9.1f}s  {result.evaluations} cell evaluations in "
           f"{result.model_calls} batched calls ({row['evaluations_per_s']:.0f}/s); "
-          f"feasible = {result.feasible}")
+          f"feasible = {result.feasible}; {space.n_stages} modules searched")
     print(f"{'':<12} {'':>10}  phases: " + ", ".join(f"{k} {v:.1f}s" for k, v in phases.items())
           + (f"; best objective {row['objective']:.3g}" if row["objective"] is not None else ""))
     if t_rob is not None:
