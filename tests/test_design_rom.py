@@ -24,7 +24,9 @@ EXAMPLES = Path(__file__).parents[1] / "examples"
 @pytest.mark.slow
 def test_small_rom_design_is_met_or_explained():
     t = target_from_spec(tomllib.loads((EXAMPLES / "target_gripper.toml").read_text()))
-    r = design(t, settings=DesignSettings(budget=160, population=8, seed=0, top=2))
+    # one module per stage keeps this end-to-end check small (grading: test_design_graded)
+    r = design(t, settings=DesignSettings(budget=160, population=8, seed=0, top=2,
+                                          graded=False))
     assert r.evaluations <= 160 + 16
     if not r.feasible:
         assert r.explanation                           # never a silent poor design
