@@ -10,7 +10,7 @@ designer (``Response`` or the exception of a design that failed, per cell).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from functools import lru_cache
 from typing import Any
 
@@ -29,7 +29,13 @@ from multimorph.rom._continuation import (
     TracerSettings,
     make_tracer,
 )
-from multimorph.rom._model import DEFAULT_SETTINGS, cell_theta, free_settings, padded_measures
+from multimorph.rom._model import (
+    DEFAULT_SETTINGS,
+    cell_theta,
+    free_settings,
+    options_for,
+    padded_measures,
+)
 
 __all__ = ["CellBatch", "ResponseBatch", "simulate_cells", "solve_batch"]
 
@@ -258,9 +264,7 @@ def solve_batch(cells: CellBatch | Sequence[CellGeometry], p_max: float | np.nda
         non-zero ``status``).
     """
     batch = cells if isinstance(cells, CellBatch) else CellBatch.from_cells(list(cells))
-    opts = options or RomOptions()
-    if batch.symmetric and not opts.mirror:
-        opts = replace(opts, mirror=True)
+    opts = options_for(batch.symmetric, options)
     st = settings or DEFAULT_SETTINGS
     pm = np.broadcast_to(np.asarray(p_max, float), (len(batch),)) / batch.mu
     if not np.all(np.isfinite(pm) & (pm > 0)):

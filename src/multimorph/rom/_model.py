@@ -37,11 +37,12 @@ DEFAULT_SETTINGS = TracerSettings(q_scale=(1.0, 1.0, 1.0, 0.1, 1.0), p_scale=0.2
                                   step_tol=1e-4)
 
 
-def options_for(cell: CellGeometry, options: RomOptions | None = None) -> RomOptions:
-    """The model options for ``cell``: ``options`` (default :class:`RomOptions`) with
-    ``mirror`` switched on for a mirror-symmetric (stretching) cell."""
+def options_for(symmetric: bool, options: RomOptions | None = None) -> RomOptions:
+    """The model options for a cell (or a batch of cells): ``options`` (default
+    :class:`RomOptions`) with ``mirror`` switched on when ``symmetric`` (a mirror-symmetric,
+    stretching cell: ``CellGeometry.symmetric``)."""
     opts = options or RomOptions()
-    if cell.symmetric and not opts.mirror:
+    if symmetric and not opts.mirror:
         opts = replace(opts, mirror=True)
     return opts
 
@@ -169,7 +170,7 @@ def solve_cell(cell: CellGeometry, p_max: float, *, options: RomOptions | None =
     >>> r.characteristic.critical_kind
     'max_slope'
     """
-    opts = options_for(cell, options)
+    opts = options_for(cell.symmetric, options)
     st = settings or DEFAULT_SETTINGS
     p_max = _check_pmax(p_max)
     assert cell.bottom_material is not None

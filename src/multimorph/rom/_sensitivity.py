@@ -199,7 +199,7 @@ def path_sensitivity(cell: CellGeometry, path: EquilibriumPath, *,
     >>> s.curvature.shape
     (76, 7)
     """
-    opts = options_for(cell, options)
+    opts = options_for(cell.symmetric, options)
     st = settings or DEFAULT_SETTINGS
     q = path.extra.get("q") if path.extra else None
     if q is None or np.asarray(q).ndim != 2 or np.asarray(q).shape[1] != len(COORDINATES):
