@@ -158,3 +158,16 @@ def test_stretch_sensitivity_matches_retraced_cells(stretching):
                                                                    P)[i])
         ift = dlam[it] + dlam[ib]
         assert ift == pytest.approx(fd, rel=0.03)
+
+
+def test_batch_traces_symmetric_cells_like_single_ones(stretching):
+    """The batched entry point (the designer's) switches the mirror model on by itself."""
+    from multimorph.rom import solve_batch
+
+    rb = solve_batch([sym_cell()], 1.2 * MU, vectorise=False)
+    assert rb.options.mirror
+    r = rb.response(0)
+    assert r.characteristic.signal == "axial_stretch"
+    assert r.characteristic.critical == pytest.approx(stretching.characteristic.critical,
+                                                      rel=1e-9)
+    np.testing.assert_allclose(r.path.axial_stretch, stretching.path.axial_stretch, rtol=1e-9)
