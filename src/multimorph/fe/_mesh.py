@@ -5,6 +5,11 @@ chamber walls, each interval is divided uniformly, the cells inside the chamber 
 and the unused nodes dropped. Every wall face lies on grid lines, so the chamber surface is
 made of whole quad faces (FElupe's pressure boundary needs hex/quad faces). By default only
 the half x ≤ w/2 is meshed (mirror plane x = w/2).
+
+A tilted cell (the twisting module's chambers, at an angle β to the strip axis) is the straight
+mesh sheared in the strip plane, y' = y + (x − w/2) tan β: the partitions turn by β, the side
+walls stay parallel to the strip axis y. The shear keeps every tag, every volume and the
+element quality's sign (its determinant is 1).
 """
 
 from __future__ import annotations
@@ -18,10 +23,13 @@ import numpy as np
 from multimorph.errors import SpecError
 from multimorph.geometry import CellGeometry
 
-__all__ = ["MESH_PRESETS", "CellMesh", "MeshDensity", "cell_mesh", "resolve_density"]
+__all__ = ["MAX_TILT", "MESH_PRESETS", "CellMesh", "MeshDensity", "cell_mesh", "resolve_density"]
 
 WALL, BOTTOM = 0, 1
 """Region tags: wall elastomer (top, side and end walls) and the stiff bottom layer."""
+
+MAX_TILT = math.radians(80.0)
+"""Largest chamber tilt |β| (rad) a cell mesh accepts (tan β grows without bound at 90°)."""
 
 
 @dataclass(frozen=True)
@@ -92,7 +100,8 @@ class CellMesh:
     chamber_faces : ndarray (k, 4)
         Chamber faces, ordered so that their normal points out of the chamber.
     clamped : ndarray (n,) of bool
-        Nodes on the mounting face y = 0.
+        Nodes on the mounting face y = 0 (a tilted mesh: the sheared plane
+        y = (x − w/2) tan β).
     mirror : ndarray (n,) of bool
         Nodes on the mirror plane x = w/2 (all False for a full model).
     bend_line : ndarray (j,)
@@ -100,12 +109,14 @@ class CellMesh:
         circle fit gives the bending curvature (the bottom-centre line x = w/2 would also
         carry the local downward bulge of the chamber floor).
     end_face : ndarray (i,)
-        Nodes of the free end face y = n_cells · d.
+        Nodes of the free end face y = n_cells · d (sheared like the clamp when tilted).
     half : bool
         Whether only x ≤ w/2 is meshed.
     geometry : CellGeometry
     n_cells : int
         Cells in series along y (the meshed length is ``n_cells · d``).
+    tilt : float
+        Chamber tilt β (rad) of a sheared mesh; 0 for a straight one.
     """
 
     points: np.ndarray
@@ -121,6 +132,7 @@ class CellMesh:
     geometry: CellGeometry
     density: MeshDensity = field(default_factory=MeshDensity)
     n_cells: int = 1
+    tilt: float = 0.0
 
     @property
     def length(self) -> float:
@@ -135,6 +147,46 @@ class CellMesh:
     @property
     def ncells(self) -> int:
         return len(self.cells)
+
+    def unsheared(self) -> np.ndarray:
+        """Node coordinates before the tilt shear (m): y − (x − w/2) tan β; the mesh's own
+        points when it is straight."""
+        pts = self.points.copy()
+        pts[:, 1] -= (pts[:, 0] - 0.5 * self.geometry.width) * math.tan(self.tilt)
+        return pts
+
+    def sections(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        """The material cross-sections between cells: (nodes, weights) for k = 0 … n_cells.
+
+        Section k is the plane y = k d of the unsheared mesh (the clamp, the mid-planes of
+        the partitions, the free end), which a tilted mesh shears into a plane parallel to
+        its partitions. A node's weight is its share of the section's reference area (a
+        quarter of every quad face of the plane it touches), so weighted means of a bilinear
+        field over a section are exact.
+        """
+        y = self.unsheared()[:, 1]
+        d = self.geometry.length
+        tol = 1e-9 * max(self.geometry.width, self.length, self.geometry.height)
+        faces = self.cells[:, _HEX_FACES].reshape(-1, 4)
+        faces = faces[np.unique(np.sort(faces, axis=1), axis=0, return_index=True)[1]]
+        out = []
+        for k in range(self.n_cells + 1):
+            on = np.abs(y - k * d) < tol
+            f = faces[np.all(on[faces], axis=1)]
+            P = self.points[f]
+            area = 0.5 * np.linalg.norm(np.cross(P[:, 2] - P[:, 0], P[:, 3] - P[:, 1]), axis=1)
+            w = np.zeros(len(self.points))
+            np.add.at(w, f.ravel(), np.repeat(area / 4.0, 4))
+            nodes = np.flatnonzero(on)
+            out.append((nodes, w[nodes]))
+        return out
+
+    def strip_nodes(self) -> tuple[np.ndarray, np.ndarray]:
+        """Nodes and area weights of the sections that measure the strip's mean strain:
+        k = 1 … n away from the clamp (a lone cell also needs the clamped section k = 0)."""
+        sec = self.sections()
+        sec = sec[1:] if self.n_cells > 1 else sec
+        return np.concatenate([n for n, _ in sec]), np.concatenate([w for _, w in sec])
 
 
 def _axis(breaks: list[float], edge: float, wall: int, walls: set[int]) -> np.ndarray:
@@ -155,7 +207,7 @@ _HEX_FACES = np.array([[0, 3, 2, 1], [4, 5, 6, 7], [0, 1, 5, 4],
 
 def cell_mesh(geometry: CellGeometry, mesh: str | MeshDensity = "coarse", *,
               element_size: float | None = None, half: bool = True, n_cells: int = 1,
-              ) -> CellMesh:
+              tilt: float = 0.0) -> CellMesh:
     """Mesh a unit cell, or ``n_cells`` of them in series (a module), with hexahedra.
 
     Parameters
@@ -171,6 +223,14 @@ def cell_mesh(geometry: CellGeometry, mesh: str | MeshDensity = "coarse", *,
         Cells in series along y (a bending or stretching module of length n·d): cell k
         occupies [k d, (k + 1) d], so neighbouring end walls merge into one solid partition
         2 df thick, and every chamber is on the same pressure line.
+    tilt : float
+        Chamber tilt β (rad), |β| < 80°: the twisting module's cells, whose chambers expand
+        at the angle β to the strip axis. The straight mesh is sheared in the strip plane,
+        y' = y + (x − w/2) tan β, so the partitions (end walls) turn by β while the side
+        walls stay parallel to y. The partitions keep their thickness df along y (df cos β
+        normal to themselves), the chamber keeps its volume, and the clamped and free end
+        faces are the sheared planes y' = (x − w/2) tan β and n d + (x − w/2) tan β. A
+        tilted cell has no mirror plane: it needs ``half=False``.
 
     Returns
     -------
@@ -187,6 +247,13 @@ def cell_mesh(geometry: CellGeometry, mesh: str | MeshDensity = "coarse", *,
     """
     if isinstance(n_cells, bool) or not isinstance(n_cells, int) or n_cells < 1:
         raise SpecError(f"n_cells: expected a positive integer, got {n_cells!r}")
+    tilt = float(tilt)
+    if not (math.isfinite(tilt) and abs(tilt) < MAX_TILT):
+        raise SpecError(f"tilt: must lie strictly between -80 and 80 degrees, got "
+                        f"{math.degrees(tilt):.4g} deg")
+    if tilt != 0.0 and half:
+        raise SpecError("tilt: a tilted cell has no mirror plane x = w/2; mesh it with "
+                        "half=False")
     dens = resolve_density(mesh, element_size)
     g = geometry
     h = dens.edge(g)
@@ -260,7 +327,10 @@ def cell_mesh(geometry: CellGeometry, mesh: str | MeshDensity = "coarse", *,
     end_face = np.flatnonzero(np.abs(py - L) < tol)
     if len(line) < 3:
         raise SpecError("mesh: the bottom edge line has fewer than 3 nodes")
+    if tilt != 0.0:
+        # every tag above was found on the straight grid; the shear moves only the points
+        pts[:, 1] += (px - w / 2) * math.tan(tilt)
     return CellMesh(points=pts, cells=cells, region=region, chamber_points=chamber_points,
                     chamber_faces=ch, clamped=clamped, mirror=mirror, bend_line=line,
                     end_face=end_face, half=half, geometry=g, density=dens,
-                    n_cells=n_cells)
+                    n_cells=n_cells, tilt=tilt)
