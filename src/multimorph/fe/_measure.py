@@ -6,10 +6,12 @@ and returns plain numbers, so it works for FE states and for tests with syntheti
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-__all__ = ["bend_and_twist", "chamber_volume", "circle_fit_curvature", "line_stretch",
-           "peak_stretch"]
+__all__ = ["StripStrain", "bend_and_twist", "chamber_volume", "circle_fit_curvature",
+           "line_stretch", "peak_stretch", "strip_strain"]
 
 # 2×2 Gauss points on [0, 1]² with weights 1/4
 _G = 0.5 + np.array([-1.0, 1.0]) / (2.0 * np.sqrt(3.0))
@@ -125,3 +127,60 @@ def peak_stretch(F: np.ndarray) -> tuple[float, int, int]:
     ev = np.linalg.eigvalsh(C)[..., -1]
     q, c = np.unravel_index(np.argmax(ev), ev.shape)
     return float(np.sqrt(ev[q, c])), int(q), int(c)
+
+
+@dataclass(frozen=True)
+class StripStrain:
+    """Mean in-plane strain of a strip (x across, y along; small-strain measures, -).
+
+    Attributes
+    ----------
+    gradient : ndarray (3, 3)
+        Mean displacement gradient H = ∂u/∂X (rows u_x, u_y, u_z; columns x, y, z).
+    shear : float
+        Engineering shear γ = H_xy + H_yx: the change of the right angle between the strip's
+        axis and its cross direction, positive when it closes.
+    slope : float
+        H_xy = ∂u_x/∂y, the lateral slope of the strip's centre line.
+    axial : float
+        H_yy = ∂u_y/∂y, the axial strain.
+    lateral : float
+        H_xx = ∂u_x/∂x, the strain across the strip.
+    rotation : float
+        (H_yx − H_xy)/2, the mean in-plane rotation (rad, about z).
+    """
+
+    gradient: np.ndarray
+    shear: float
+    slope: float
+    axial: float
+    lateral: float
+    rotation: float
+
+
+def strip_strain(X: np.ndarray, x: np.ndarray, weights: np.ndarray) -> StripStrain:
+    """Mean displacement gradient of a strip by a weighted affine fit of its displacement.
+
+    The displacement u = x − X of the given nodes (in practice: the nodes of two or more
+    cross-sections of the strip, weighted by their share of the section area) is fitted by
+    ``u ≈ a + H (X − X̄)`` in weighted least squares. For sections that share one layout
+    across the strip (the cells of a module), H_xy is the slope of the lateral displacement
+    of the sections' area centroids along the strip. A linear (small-strain) measure: a bend
+    of the strip out of its plane enters only at second order.
+
+    Parameters
+    ----------
+    X, x : ndarray (n, 3)
+        Reference and deformed node coordinates (one length unit).
+    weights : ndarray (n,)
+        Non-negative weights (e.g. tributary areas).
+    """
+    w = np.asarray(weights, float)
+    Xc = X - np.average(X, axis=0, weights=w)
+    A = np.column_stack([np.ones(len(X)), Xc]) * np.sqrt(w)[:, None]
+    b = (x - X) * np.sqrt(w)[:, None]
+    sol, *_ = np.linalg.lstsq(A, b, rcond=None)
+    H = sol[1:].T
+    return StripStrain(gradient=H, shear=float(H[0, 1] + H[1, 0]), slope=float(H[0, 1]),
+                       axial=float(H[1, 1]), lateral=float(H[0, 0]),
+                       rotation=float(0.5 * (H[1, 0] - H[0, 1])))
