@@ -24,6 +24,7 @@ from multimorph.fe._measure import (
     circle_fit_curvature,
     line_stretch,
     peak_stretch,
+    strip_strain,
 )
 from multimorph.fe._mesh import BOTTOM, WALL, CellMesh, MeshDensity, cell_mesh
 from multimorph.fe._problem import PressureProblem
@@ -128,6 +129,10 @@ def build_cell_problem(mesh: CellMesh) -> tuple[PressureProblem, float, float]:
     return PressureProblem(fmesh, bodies, mesh.chamber_points, fixed), L, mu
 
 
+_STRIP_KEYS = ("shear", "shear_slope", "strip_axial_strain", "strip_lateral_strain",
+               "strip_rotation")
+
+
 class _Recorder:
     """Measures every converged point and decides when to stop."""
 
@@ -147,6 +152,8 @@ class _Recorder:
         self.u: list[np.ndarray] = []
         self.cell_stretch: list[np.ndarray] = []
         self.stop_reason = ""
+        # the strip's mean in-plane strain (full models), on the sections away from the clamp
+        self.strip = None if mesh.half else mesh.strip_nodes()
         self.add(PathPoint(0.0, problem.get_x(), 0, True, "start"))
 
     def add(self, pt: PathPoint) -> bool:
@@ -181,6 +188,13 @@ class _Recorder:
             "peak_region": int(m.region[cell]), "newton_iterations": pt.iterations,
             "arc_length": pt.method == "arc-length",
         })
+        if self.strip is not None:
+            nodes, weights = self.strip
+            st = strip_strain(m.points[nodes], x[nodes], weights)
+            self.rows[-1].update({"shear": st.shear, "shear_slope": st.slope,
+                                  "strip_axial_strain": st.axial,
+                                  "strip_lateral_strain": st.lateral,
+                                  "strip_rotation": st.rotation})
         self.u.append(u)
         self.cell_stretch.append(cs)
         if self.progress is not None:
@@ -207,7 +221,8 @@ class _Recorder:
         r = self.rows
         arr = {k: np.array([row[k] for row in r]) for k in r[0]}
         extra = {k: arr[k] for k in ("bend_angle", "twist_angle", "volume_ratio",
-                                     "peak_region", "newton_iterations", "arc_length")}
+                                     "peak_region", "newton_iterations", "arc_length",
+                                     *_STRIP_KEYS) if k in arr}
         extra["peak_location"] = np.column_stack([arr["peak_x"], arr["peak_y"], arr["peak_z"]])
         return EquilibriumPath(
             pressure=arr["pressure"], curvature=arr["curvature"],
@@ -229,7 +244,7 @@ def _merge(a: PathRun, b: PathRun) -> PathRun:
 
 def simulate_cell(geometry: CellGeometry, settings: FESettings | None = None, *,
                   progress: Callable[[float, int], None] | None = None,
-                  n_cells: int = 1) -> FEResult:
+                  n_cells: int = 1, tilt: float = 0.0) -> FEResult:
     """Inflate a unit cell (or a module of cells in series) with FE and measure it like the
     reference paper.
 
@@ -243,6 +258,18 @@ def simulate_cell(geometry: CellGeometry, settings: FESettings | None = None, *,
         Cells in series along the axis (a bending or stretching module, mounted at y = 0):
         the curvature is then the circle fit of the bottom edge over the whole module, the
         volume that of all chambers, and the response's length ``n_cells · d``.
+    tilt : float
+        Chamber tilt β (rad, |β| < 80°) of a twisting strip's cells: the mesh is sheared in
+        the strip plane (:func:`~multimorph.fe.cell_mesh`), clamped on its sheared end face.
+        Needs a full model (``FESettings(half=False)``).
+
+    Notes
+    -----
+    A full model (``half=False``) also records the strip's mean in-plane strain in
+    ``path.extra`` (:func:`~multimorph.fe._measure.strip_strain` over the cross-sections
+    between cells, away from the clamp): ``shear`` γ = ∂u_x/∂y + ∂u_y/∂x, ``shear_slope``
+    ∂u_x/∂y (the centre line's lateral slope), ``strip_axial_strain`` ∂u_y/∂y,
+    ``strip_lateral_strain`` ∂u_x/∂x and ``strip_rotation`` (rad).
 
     Returns
     -------
@@ -262,7 +289,7 @@ def simulate_cell(geometry: CellGeometry, settings: FESettings | None = None, *,
     s = settings or FESettings()
     t0 = time.perf_counter()
     mesh = cell_mesh(geometry, s.mesh, element_size=s.element_size, half=s.half,
-                     n_cells=n_cells)
+                     n_cells=n_cells, tilt=tilt)
     problem, L, mu = build_cell_problem(mesh)
     solver = make_solver(s.solver)
     p_max = s.p_max if s.p_max is not None else mu
@@ -291,7 +318,8 @@ def simulate_cell(geometry: CellGeometry, settings: FESettings | None = None, *,
         raise MultimorphError(f"FE analysis found no equilibrium beyond P = 0: {run.message}")
     path = rec.path()
     stats = {
-        "backend": "fe", "n_cells": int(mesh.n_cells), "ndof": int(mesh.ndof),
+        "backend": "fe", "n_cells": int(mesh.n_cells), "tilt": float(mesh.tilt),
+        "ndof": int(mesh.ndof),
         "nfree": int(problem.nfree),
         "ncells": int(mesh.ncells), "points": len(rec.rows) - 1, "attempts": run.attempts,
         "cutbacks": run.cutbacks, "newton_iterations": run.newton_iterations,
