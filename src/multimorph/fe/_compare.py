@@ -1,17 +1,20 @@
-"""ROM vs FE on one cell: Pc, Ph and κ(P) side by side with relative differences."""
+"""ROM vs FE on one cell: Pc, Ph and κ(P) side by side with relative differences; and the
+in-plane shear of a strip of tilted (twisting) cells against the ROM's twisting kinematics."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from multimorph.errors import MultimorphError
+from multimorph.errors import MultimorphError, SpecError
 from multimorph.geometry import CellGeometry
 from multimorph.response import Response
 
-__all__ = ["Comparison", "compare_cell", "compare_responses"]
+__all__ = ["Comparison", "ShearComparison", "compare_cell", "compare_responses",
+           "compare_shear", "compare_shear_responses"]
 
 
 def _rel(a: float | None, b: float | None) -> float | None:
@@ -126,3 +129,136 @@ def compare_cell(geometry: CellGeometry, p_max: float, fe_settings: Any = None,
                                                   "fe_dof": fe.stats["nfree"],
                                                   "fe_status": fe.stats["stop_reason"]
                                                   or fe.stats["status"]}})
+
+
+@dataclass(frozen=True)
+class ShearComparison:
+    """In-plane shear γ(P) of a tilted strip: FE against the ROM's twisting kinematics.
+
+    Both curves are in the FE mesh's frame (x across the strip, y along it; chamber axis
+    n = (−sin β, cos β), see :func:`~multimorph.fe.cell_mesh`): the ROM's natural strain
+    ε = λ_mid − 1 of the straight cell along n gives γ_xy = −ε sin 2β and an axial strain
+    ε cos²β (:mod:`multimorph.device._modules`, whose twisting module uses the magnitude
+    ε sin 2β). The FE values are the strip's mean strain away from the clamp
+    (``extra["shear"]``, ``extra["strip_axial_strain"]``).
+
+    Attributes
+    ----------
+    tilt : float
+        β (rad).
+    pressure : ndarray
+        Common pressures (Pa), within both observed loading curves, P = 0 left out.
+    shear_rom, shear_fe : ndarray
+        γ_xy (-) at ``pressure``.
+    axial_rom, axial_fe : ndarray
+        Axial strain of the strip (-) at ``pressure``.
+    ratio : ndarray
+        γ_fe / γ_rom (NaN where the ROM's shear is 0).
+    shear_rel_max : float or None
+        Largest |γ_rom − γ_fe| relative to the largest |γ_fe|.
+    """
+
+    tilt: float
+    pressure: np.ndarray
+    shear_rom: np.ndarray
+    shear_fe: np.ndarray
+    axial_rom: np.ndarray
+    axial_fe: np.ndarray
+    ratio: np.ndarray
+    shear_rel_max: float | None
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"tilt_deg": math.degrees(self.tilt), "pressure": self.pressure.tolist(),
+                "shear": {"rom": self.shear_rom.tolist(), "fe": self.shear_fe.tolist(),
+                          "ratio_fe_rom": self.ratio.tolist(),
+                          "rel_max": self.shear_rel_max},
+                "axial_strain": {"rom": self.axial_rom.tolist(),
+                                 "fe": self.axial_fe.tolist()},
+                "meta": self.meta}
+
+
+def compare_shear_responses(rom: Response, fe: Response, geometry: CellGeometry,
+                            tilt: float, n: int = 25) -> ShearComparison:
+    """Compare a tilted strip's FE shear with the ROM's on the straight cell ``geometry``.
+
+    Parameters
+    ----------
+    rom : Response
+        The straight cell's reduced-model response.
+    fe : Response
+        A full-model FE response of a strip of ``geometry`` cells tilted by ``tilt``
+        (:func:`~multimorph.fe.simulate_cell` with ``tilt``): ``extra["shear"]`` is read.
+    geometry : CellGeometry
+    tilt : float
+        β (rad), 0 < |β| < 80°.
+    n : int
+        Number of common pressures.
+    """
+    from multimorph.device import Module, module_strains
+
+    if not 0.0 < abs(tilt) < math.radians(80.0):
+        raise SpecError(f"tilt: compare_shear needs 0 < |tilt| < 80 degrees, got "
+                        f"{math.degrees(tilt):.4g} deg")
+    lf = fe.loading
+    if "shear" not in lf.extra:
+        raise SpecError("fe: the response records no strip shear (a full-model FE response "
+                        "of a tilted strip is needed)")
+    # the device's own twisting kinematics: γ = τ R on any shaft; its sign is that of sin 2β
+    radius = geometry.height
+    module = Module("strip", "twisting", geometry, tilt=tilt, shaft_radius=radius)
+    ms = module_strains(module, rom)
+    R = radius + 0.5 * geometry.height
+    hi = min(float(np.max(ms.pressure)), float(np.max(lf.pressure)))
+    P = np.linspace(hi / n, hi, n)
+    g_rom = -np.interp(P, ms.pressure, ms.twist * R)  # mesh frame: γ_xy = −ε sin 2β
+    a_rom = np.interp(P, ms.pressure, ms.stretch) - 1.0
+    g_fe = np.interp(P, lf.pressure, lf.extra["shear"])
+    a_fe = np.interp(P, lf.pressure, lf.extra["strip_axial_strain"])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(g_rom != 0.0, g_fe / g_rom, np.nan)
+    scale = float(np.max(np.abs(g_fe)))
+    rel = float(np.max(np.abs(g_rom - g_fe)) / scale) if scale > 0 else None
+    return ShearComparison(tilt, P, g_rom, g_fe, a_rom, a_fe, ratio, rel)
+
+
+def compare_shear(geometry: CellGeometry, tilt: float, p_max: float, fe_settings: Any = None,
+                  n_cells: int = 2) -> ShearComparison:
+    """Run the ROM on the straight cell and FE on a strip of ``n_cells`` tilted cells.
+
+    The FE model is full (``half=False``, forced), clamped on its sheared end face; its
+    shear is measured on the sections away from the clamp, so ``n_cells`` ≥ 2 is advised.
+
+    Parameters
+    ----------
+    geometry : CellGeometry
+    tilt : float
+        Chamber tilt β (rad).
+    p_max : float
+        Highest pressure of both runs (Pa).
+    fe_settings : FESettings, optional
+    n_cells : int
+        Cells in the FE strip.
+    """
+    import time
+    from dataclasses import replace
+
+    from multimorph.fe._cell import FESettings, simulate_cell
+
+    try:
+        from multimorph.rom import simulate_cell as rom_simulate
+    except ImportError as exc:
+        raise MultimorphError(f"the reduced model (multimorph.rom) is not available: {exc}"
+                              ) from exc
+    s = fe_settings if fe_settings is not None else FESettings()
+    s = replace(s, p_max=p_max, half=False)
+    t = time.perf_counter()
+    fe = simulate_cell(geometry, s, n_cells=n_cells, tilt=tilt)
+    t_fe = time.perf_counter() - t
+    t = time.perf_counter()
+    rom = rom_simulate(geometry, p_max)
+    t_rom = time.perf_counter() - t
+    c = compare_shear_responses(rom, fe.response, geometry, tilt)
+    return replace(c, meta={"rom_time": t_rom, "fe_time": t_fe, "fe_dof": fe.stats["nfree"],
+                            "n_cells": n_cells,
+                            "fe_status": fe.stats["stop_reason"] or fe.stats["status"]})
