@@ -12,6 +12,15 @@ Heavy dependencies are imported inside functions; a missing one raises
 
 from multimorph.fe._cell import FEResult, FESettings, build_cell_problem, simulate_cell
 from multimorph.fe._deps import MissingExtraError
+from multimorph.fe._device import (
+    FE_MODULE_KINDS,
+    DeviceMesh,
+    FEDeviceResult,
+    compare_device,
+    device_mesh,
+    fe_device_modules,
+    simulate_device,
+)
 from multimorph.fe._linsolve import LinearSolver, NonFiniteSystemError, make_solver
 from multimorph.fe._measure import (
     bend_and_twist,
@@ -25,8 +34,11 @@ from multimorph.fe._problem import PressureProblem
 from multimorph.fe._solve import PathPoint, PathRun, continuation, newton, pressure_control
 
 __all__ = [
+    "FE_MODULE_KINDS",
     "MESH_PRESETS",
     "CellMesh",
+    "DeviceMesh",
+    "FEDeviceResult",
     "FEResult",
     "FESettings",
     "LinearSolver",
@@ -41,7 +53,10 @@ __all__ = [
     "cell_mesh",
     "chamber_volume",
     "circle_fit_curvature",
+    "compare_device",
     "continuation",
+    "device_mesh",
+    "fe_device_modules",
     "line_stretch",
     "make_solver",
     "newton",
@@ -49,4 +64,5 @@ __all__ = [
     "pressure_control",
     "resolve_density",
     "simulate_cell",
+    "simulate_device",
 ]

@@ -1,0 +1,698 @@
+"""3D FE of a device: bending and stretching modules in series on one pressure line.
+
+One structured hexahedral grid holds the whole device. Every module's cross-section is
+centred on the common axis (x = W/2, z = H/2, with W × H the largest box); the grid is cut at
+every module's wall planes (x and z: the union over modules, z mirrored within the section
+for a module turned by 180°), and along y each module's cells follow each other from the
+clamped face y = 0, as in :func:`~multimorph.fe.cell_mesh`. A grid cell is kept when it lies
+inside its module's box and outside its chambers; neighbouring modules' end walls merge into
+one partition, like adjacent cells of a module. Every chamber is on the one pressure line.
+
+Each module is measured from node coordinates at every converged point, as the reference
+paper measured its FE devices: the bend angle is the rotation about x of its end section
+relative to its start section (best-fit rotations of the sections' nodes), the axial stretch
+is the length of the circular arc through the section centroids with that angle, over the
+module length. A module's Pc and Ph come from :func:`~multimorph.response.build_response` on
+its own signal (bending: curvature = angle / length in the module's frame; stretching: the
+axial stretch).
+
+Scaling: inside, lengths are in units of the first module's cell length and stresses in
+units of the softest module's wall shear modulus (a device of one module is then the same
+nondimensional problem as :func:`~multimorph.fe.simulate_cell`).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+
+from multimorph.device import Device, Module
+from multimorph.errors import MultimorphError, SpecError
+from multimorph.fe._cell import FESettings, _merge
+from multimorph.fe._deps import require
+from multimorph.fe._linsolve import make_solver
+from multimorph.fe._measure import _kabsch, bend_and_twist, chamber_volume
+from multimorph.fe._mesh import _HEX_FACES, BOTTOM, WALL, MeshDensity, _axis, resolve_density
+from multimorph.fe._problem import PressureProblem
+from multimorph.fe._solve import PathPoint, PathRun, continuation, pressure_control
+from multimorph.materials import Material
+from multimorph.response import EquilibriumPath, Response, build_response
+
+__all__ = ["FE_MODULE_KINDS", "DeviceMesh", "FEDeviceResult", "compare_device", "device_mesh",
+           "fe_device_modules", "simulate_device"]
+
+#: Module kinds that the structured device mesh can hold.
+FE_MODULE_KINDS = ("bending", "stretching")
+
+_SUPPORTED = ("FE devices support one series branch of bending and stretching modules "
+              "(count = 1, orientation 0 or 180 deg, each starting where the previous ends)")
+
+
+def fe_device_modules(device: Device) -> tuple[Module, ...]:
+    """The device's modules in order along its one branch, checked for FE.
+
+    Raises
+    ------
+    SpecError
+        Naming the module and field for anything the structured mesh cannot hold: twisting
+        modules, parallel branches (``attach_to``, a second branch), ``count`` > 1, an
+        orientation other than 0° or 180°, or a gap between modules.
+    """
+    branches = device.branches()
+    for m in device.modules:
+        where = f"module {m.name!r}"
+        if m.kind not in FE_MODULE_KINDS:
+            raise SpecError(f"{where}.kind: {m.kind!r} is not supported by FE; {_SUPPORTED}")
+        if m.attach_to is not None:
+            raise SpecError(f"{where}.attach_to: parallel branches are not supported by FE; "
+                            f"{_SUPPORTED}")
+        if m.count != 1:
+            raise SpecError(f"{where}.count: {m.count} copies are not supported by FE; "
+                            f"{_SUPPORTED}")
+        turn = math.remainder(m.orientation, math.pi)
+        if abs(turn) > 1e-9:
+            raise SpecError(f"{where}.orientation: {math.degrees(m.orientation):.4g} deg is not "
+                            f"supported by FE; {_SUPPORTED}")
+    if len(branches) != 1:
+        names = ", ".join(sorted(branches))
+        raise SpecError(f"module branch: the device has {len(branches)} branches ({names}); "
+                        f"{_SUPPORTED}")
+    mods = tuple(next(iter(branches.values())))
+    for a, b in itertools.pairwise(mods):
+        if abs(b.start - a.end) > 1e-9 * max(a.end, 1e-3):
+            raise SpecError(f"module {b.name!r}.start: starts at {b.start * 1e3:.4g} mm, not "
+                            f"where {a.name!r} ends ({a.end * 1e3:.4g} mm); {_SUPPORTED}")
+    return mods
+
+
+def _flipped(m: Module) -> bool:
+    return abs(math.remainder(m.orientation, 2.0 * math.pi)) > 1e-9
+
+
+@dataclass(frozen=True, eq=False)
+class DeviceMesh:
+    """A hexahedral mesh of a device with its tags (m, reference configuration).
+
+    Attributes
+    ----------
+    points : ndarray (n, 3)
+    cells : ndarray (m, 8)
+        VTK hexahedron connectivity.
+    region : ndarray (m,)
+        0 for wall elastomer, 1 for a module's bottom (strain-limiting) layer.
+    module : ndarray (m,)
+        Index of the element's module in ``modules``.
+    material : ndarray (m,)
+        Index of the element's material in ``materials``.
+    chamber_points : ndarray (n,) of bool
+        Nodes on a chamber surface (the pressure boundary).
+    chamber_faces : ndarray (k, 4)
+        Chamber faces, normals out of the chamber.
+    face_module : ndarray (k,)
+        Module of each chamber face.
+    clamped, mirror : ndarray (n,) of bool
+        Nodes on the mounting face y = 0 and on the mirror plane x = W/2 (half model).
+    start_sections, end_sections : tuple of ndarray
+        Per module, the nodes of its start and end cross-section (inside its own box).
+    starts : ndarray (k + 1,)
+        y of every module's start and of the free end (m).
+    modules : tuple of Module
+    materials : tuple of Material
+        Distinct materials, in order of first use (module wall, then bottom layer).
+    width, height : float
+        The largest box W × H (m); sections are centred on x = W/2, z = H/2.
+    half : bool
+    density : MeshDensity
+    """
+
+    points: np.ndarray
+    cells: np.ndarray
+    region: np.ndarray
+    module: np.ndarray
+    material: np.ndarray
+    chamber_points: np.ndarray
+    chamber_faces: np.ndarray
+    face_module: np.ndarray
+    clamped: np.ndarray
+    mirror: np.ndarray
+    start_sections: tuple[np.ndarray, ...]
+    end_sections: tuple[np.ndarray, ...]
+    starts: np.ndarray
+    modules: tuple[Module, ...]
+    materials: tuple[Material, ...]
+    width: float
+    height: float
+    half: bool
+    density: MeshDensity = field(default_factory=MeshDensity)
+
+    @property
+    def length(self) -> float:
+        """Device length along y (m)."""
+        return float(self.starts[-1])
+
+    @property
+    def ndof(self) -> int:
+        return 3 * len(self.points)
+
+    @property
+    def ncells(self) -> int:
+        return len(self.cells)
+
+
+def _graded(breaks: list[float], walls: list[tuple[float, float]], edge: float, n: int,
+            ) -> np.ndarray:
+    """Coordinates through sorted breaks; an interval inside a wall of thickness t gets at
+    least ⌈n · length / t⌉ elements, so every wall of every module has ≥ n through it."""
+    scale = max(abs(breaks[0]), abs(breaks[-1]), 1e-3)
+    tol = 1e-9 * scale
+    pts = [breaks[0]]
+    for b in breaks[1:]:
+        if b - pts[-1] > tol:
+            pts.append(b)
+    out = [np.array([pts[0]])]
+    for a, b in itertools.pairwise(pts):
+        k = 1
+        for lo, hi in walls:
+            if a >= lo - tol and b <= hi + tol:
+                k = max(k, math.ceil(n * (b - a) / (hi - lo) - 1e-9))
+        out.append(_axis([a, b], edge, k, {0})[1:])
+    return np.concatenate(out)
+
+
+def device_mesh(device: Device, mesh: str | MeshDensity = "coarse", *,
+                element_size: float | None = None, half: bool = True) -> DeviceMesh:
+    """Mesh a device's modules in series with one structured hexahedral grid.
+
+    Parameters
+    ----------
+    device : Device
+        One series branch of bending and stretching modules (see :func:`fe_device_modules`).
+    mesh : {"coarse", "medium", "fine"} or MeshDensity
+        Density; the in-plane edge along y is each module's own (a fraction of its cell
+        length), across (x, z) the smallest over the modules.
+    element_size : float, optional
+        Explicit target edge length (m).
+    half : bool
+        Mesh only x ≤ W/2 (every module is mirror-symmetric about the common plane).
+
+    Returns
+    -------
+    DeviceMesh
+    """
+    mods = fe_device_modules(device)
+    dens = resolve_density(mesh, element_size)
+    n = dens.wall_elements
+    W = max(m.cell.width for m in mods)
+    H = max(m.cell.height for m in mods)
+    edge = min(dens.edge(m.cell) for m in mods)
+    # per module: outer box, chamber box, bottom layer (global x, z)
+    geo = []
+    for m in mods:
+        g = m.cell
+        zb = H / 2 - g.height / 2
+        lower = g.ht if _flipped(m) else g.hb
+        z0 = zb + lower
+        geo.append({"x0": W / 2 - g.width / 2, "zb": zb, "zt": zb + g.height, "z0": z0,
+                    "z1": z0 + g.hc, "xc": W / 2 - g.width / 2 + g.ws,
+                    "bot": (zb + g.height - g.hb, zb + g.height) if _flipped(m)
+                    else (zb, zb + g.hb)})
+    xb = sorted({v for q in geo for v in (q["x0"], q["xc"])} | {W / 2})
+    xh = _graded(xb, [(q["x0"], q["xc"]) for q in geo], edge, n)
+    xs = xh if half else np.concatenate([xh, (W - xh[::-1])[1:]])
+    zb_ = sorted({v for q in geo for v in (q["zb"], q["z0"], q["z1"], q["zt"])})
+    zs = _graded(zb_, [w for q in geo for w in ((q["zb"], q["z0"]), (q["z1"], q["zt"]))],
+                 edge, n)
+    starts = [0.0]
+    ys = [np.array([0.0])]
+    for m in mods:
+        g, y0 = m.cell, starts[-1]
+        br = [y0]
+        for k in range(m.n_cells):
+            br += [y0 + k * g.d + g.df, y0 + (k + 1) * g.d - g.df, y0 + (k + 1) * g.d]
+        walls = {i for i in range(len(br) - 1) if i % 3 != 1}
+        ys.append(_axis(br, dens.edge(g), n, walls)[1:])
+        starts.append(br[-1])
+    ys = np.concatenate(ys)
+    y_at = np.array(starts)
+
+    X, Y, Z = np.meshgrid(xs, ys, zs, indexing="ij")
+    pts = np.column_stack([X.ravel(), Y.ravel(), Z.ravel()])
+    nx, ny, nz = len(xs), len(ys), len(zs)
+    idx = np.arange(nx * ny * nz).reshape(nx, ny, nz)
+    a = idx[:-1, :-1, :-1].ravel()
+    b = idx[1:, :-1, :-1].ravel()
+    c = idx[1:, 1:, :-1].ravel()
+    e = idx[:-1, 1:, :-1].ravel()
+    cells = np.column_stack([a, b, c, e, a + 1, b + 1, c + 1, e + 1])
+    cen = pts[cells].mean(axis=1)
+    mod = np.clip(np.searchsorted(y_at, cen[:, 1]) - 1, 0, len(mods) - 1)
+
+    def per(key: str) -> np.ndarray:
+        return np.array([q[key] for q in geo])[mod]
+
+    d = np.array([m.cell.d for m in mods])[mod]
+    df = np.array([m.cell.df for m in mods])[mod]
+    dx = np.abs(cen[:, 0] - W / 2)
+    yl = np.mod(cen[:, 1] - y_at[mod], d)
+    in_box = (dx < W / 2 - per("x0")) & (cen[:, 2] > per("zb")) & (cen[:, 2] < per("zt"))
+    chamber = ((dx < W / 2 - per("xc")) & (yl > df) & (yl < d - df)
+               & (cen[:, 2] > per("z0")) & (cen[:, 2] < per("z1")))
+    keep = in_box & ~chamber
+    cells, cen, mod = cells[keep], cen[keep], mod[keep]
+    used = np.unique(cells)
+    renum = -np.ones(len(pts), dtype=np.int64)
+    renum[used] = np.arange(len(used))
+    pts = pts[used]
+    cells = renum[cells]
+    bot = np.array([q["bot"] for q in geo])[mod]
+    region = np.where((cen[:, 2] > bot[:, 0]) & (cen[:, 2] < bot[:, 1]), BOTTOM,
+                      WALL).astype(np.int8)
+    materials: list[Material] = []
+    for m in mods:
+        for mat in (m.cell.material, m.cell.bottom_material):
+            if mat not in materials:
+                materials.append(mat)
+    mat_of = np.array([[materials.index(m.cell.material),
+                        materials.index(m.cell.bottom_material)] for m in mods])
+    material = mat_of[mod, region].astype(np.int16)
+
+    tol = 1e-9 * max(W, H, starts[-1])
+    px, py, pz = pts.T
+    chamber_points = np.zeros(len(pts), dtype=bool)
+    for m, q, y0 in zip(mods, geo, starts, strict=False):
+        g = m.cell
+        for k in range(m.n_cells):
+            lo = (q["xc"], y0 + k * g.d + g.df, q["z0"])
+            hi = (W - q["xc"], y0 + (k + 1) * g.d - g.df, q["z1"])
+            inside = np.ones(len(pts), dtype=bool)
+            on_plane = np.zeros(len(pts), dtype=bool)
+            for p_, l_, h_ in zip((px, py, pz), lo, hi, strict=True):
+                inside &= (p_ > l_ - tol) & (p_ < h_ + tol)
+                on_plane |= (np.abs(p_ - l_) < tol) | (np.abs(p_ - h_) < tol)
+            chamber_points |= inside & on_plane
+    faces = cells[:, _HEX_FACES].reshape(-1, 4)
+    _, inv, counts = np.unique(np.sort(faces, axis=1), axis=0, return_inverse=True,
+                               return_counts=True)
+    on = (counts[inv.ravel()] == 1) & np.all(chamber_points[faces], axis=1)
+    ch = faces[on][:, ::-1].copy()  # normals out of the chamber
+    face_module = np.repeat(mod, len(_HEX_FACES))[on]
+
+    def section(y: float, q: dict[str, float]) -> np.ndarray:
+        return np.flatnonzero((np.abs(py - y) < tol) & (px > q["x0"] - tol)
+                              & (px < W - q["x0"] + tol) & (pz > q["zb"] - tol)
+                              & (pz < q["zt"] + tol))
+
+    return DeviceMesh(
+        points=pts, cells=cells, region=region, module=mod.astype(np.int16), material=material,
+        chamber_points=chamber_points, chamber_faces=ch, face_module=face_module,
+        clamped=np.abs(py) < tol,
+        mirror=(np.abs(px - W / 2) < tol) if half else np.zeros(len(pts), dtype=bool),
+        start_sections=tuple(section(starts[i], q) for i, q in enumerate(geo)),
+        end_sections=tuple(section(starts[i + 1], q) for i, q in enumerate(geo)),
+        starts=y_at, modules=mods, materials=tuple(materials), width=W, height=H, half=half,
+        density=dens)
+
+
+def _section_motion(X: np.ndarray, x: np.ndarray, s: np.ndarray, e: np.ndarray,
+                    mirror_x: float | None) -> tuple[float, float, float]:
+    """Bend and twist (rad) of section ``e`` relative to section ``s`` and the y–z chord of
+    their node centroids (m).
+
+    A half model's sections are completed by their mirror images (x → 2 x_m − x), so the
+    best-fit rotations are those of the whole sections: exactly about x, and composing
+    additively along the device.
+    """
+    def whole(P: np.ndarray) -> np.ndarray:
+        if mirror_x is None:
+            return P
+        return np.concatenate([P, P * [-1.0, 1.0, 1.0] + [2.0 * mirror_x, 0.0, 0.0]])
+
+    Xs, xs, Xe, xe = whole(X[s]), whole(x[s]), whole(X[e]), whole(x[e])
+    Rs = _kabsch(Xs, xs)
+    bend, twist = bend_and_twist(Xe, xe @ Rs)  # rows rotated by Rsᵀ: Rsᵀ R_e
+    chord = float(np.linalg.norm(x[e, 1:].mean(0) - x[s, 1:].mean(0)))
+    return bend, twist, chord
+
+
+class _DeviceRecorder:
+    """Measures every module at every converged point and decides when to stop."""
+
+    def __init__(self, mesh: DeviceMesh, problem: PressureProblem, L: float, mu: float,
+                 p_max: float, s: FESettings, max_stretch: float | None,
+                 progress: Callable[[float, int], None] | None) -> None:
+        self.mesh, self.problem, self.L, self.mu = mesh, problem, L, mu
+        self.p_max, self.s, self.max_stretch, self.progress = p_max, s, max_stretch, progress
+        m = mesh
+        self.mirror_x = m.width / 2 if m.half else None
+        self.V0 = np.array([chamber_volume(m.points, m.chamber_faces[m.face_module == i],
+                                           mirror_x=self.mirror_x)
+                            for i in range(len(m.modules))])
+        self.chord0 = np.array([_section_motion(m.points, m.points, s_, e_, None)[2]
+                                for s_, e_ in zip(m.start_sections, m.end_sections,
+                                                  strict=True)])
+        self.sign = np.array([-1.0 if _flipped(mod) else 1.0 for mod in m.modules])
+        self.rows: list[dict[str, Any]] = []
+        self.u: list[np.ndarray] = []
+        self.cell_stretch: list[np.ndarray] = []
+        self.stop_reason = ""
+        self.add(PathPoint(0.0, problem.get_x(), 0, True, "start"))
+
+    def add(self, pt: PathPoint) -> bool:
+        m = self.mesh
+        self.problem.set_x(pt.x)
+        u = self.problem.values.copy() * self.L
+        x = m.points + u
+        k = len(m.modules)
+        bend, twist, lam, vol, peak = (np.zeros(k) for _ in range(5))
+        prev = self.rows[-1] if self.rows else None
+        turn = 2.0 * math.pi
+        for i in range(k):
+            b, t, chord = _section_motion(m.points, x, m.start_sections[i], m.end_sections[i],
+                                          self.mirror_x)
+            if m.half:
+                t = 0.0  # zero by the mirror symmetry
+            if prev is not None:  # continuous along the path (a module may curl past 180°)
+                b += turn * round((prev["rel_bend"][i] - b) / turn)
+            bend[i], twist[i] = b, t
+            half = 0.5 * b
+            arc = chord * (half / math.sin(half)) if abs(math.sin(half)) > 1e-12 else chord
+            lam[i] = arc / self.chord0[i]
+            vol[i] = chamber_volume(x, m.chamber_faces[m.face_module == i],
+                                    mirror_x=self.mirror_x)
+        F = self.problem.deformation_gradient()
+        C = np.einsum("kiqc,kjqc->qcij", F, F)
+        ev = np.sqrt(np.linalg.eigvalsh(C)[..., -1])  # (q, cells)
+        cell_peak = ev.max(axis=0)
+        for i in range(k):
+            peak[i] = float(cell_peak[m.module == i].max())
+        tip_bend = _section_motion(m.points, x, m.start_sections[0], m.end_sections[-1],
+                                   self.mirror_x)[0]
+        if prev is not None:
+            tip_bend += turn * round((prev["tip_angle"] - tip_bend) / turn)
+        tip = x[m.end_sections[-1]].mean(axis=0)
+        if m.half:
+            tip[0] = m.width / 2  # the whole section's centroid, by symmetry
+        self.rows.append({
+            "pressure": pt.pressure * self.mu, "rel_bend": bend, "twist": twist,
+            "stretch": lam, "volume": vol, "peak": peak, "tip": tip, "tip_angle": tip_bend,
+            "stable": bool(pt.stable) if pt.stable is not None else True,
+            "iterations": pt.iterations, "arc_length": pt.method == "arc-length",
+        })
+        self.u.append(u)
+        self.cell_stretch.append(ev.mean(axis=0))
+        if self.progress is not None:
+            self.progress(pt.pressure * self.mu, len(self.rows))
+        return self._stop(pt)
+
+    def _stop(self, pt: PathPoint) -> bool:
+        r = self.rows[-1]
+        ratio = r["volume"] / self.V0
+        if ratio.max() > self.s.max_volume_ratio:
+            i = int(np.argmax(ratio))
+            self.stop_reason = (f"chamber volume ratio of module {self.mesh.modules[i].name!r}"
+                                f" exceeded {self.s.max_volume_ratio:g}")
+            return True
+        if self.max_stretch is not None and r["peak"].max() > self.max_stretch:
+            self.stop_reason = f"peak stretch exceeded {self.max_stretch:g}"
+            return True
+        pres = [row["pressure"] for row in self.rows]
+        if self.s.stop_after_limit:
+            top = int(np.argmax(pres))
+            if pres[-1] < 0.995 * pres[top] and len(pres) - top >= 3:
+                self.stop_reason = "passed the limit point"
+                return True
+        if (pt.method == "arc-length" and pres[-1] >= self.p_max and len(pres) > 2
+                and pres[-1] >= pres[-2]):
+            self.stop_reason = "reached p_max"
+            return True
+        return False
+
+    def module_path(self, i: int) -> EquilibriumPath:
+        """Module ``i``'s path: curvature = bend angle in the module's frame / its length."""
+        r = self.rows
+        mod = self.mesh.modules[i]
+        bend = self.sign[i] * np.array([row["rel_bend"][i] for row in r])
+        vol = np.array([row["volume"][i] for row in r])
+        return EquilibriumPath(
+            pressure=np.array([row["pressure"] for row in r]),
+            curvature=bend / mod.length,
+            twist_rate=np.array([row["twist"][i] for row in r]) / mod.length,
+            axial_stretch=np.array([row["stretch"][i] for row in r]),
+            volume=vol, peak_stretch=np.array([row["peak"][i] for row in r]),
+            stable=np.array([row["stable"] for row in r], dtype=bool),
+            extra={"bend_angle": bend,
+                   "bend_angle_device": self.sign[i] * bend,
+                   "volume_ratio": vol / self.V0[i],
+                   "arc_length": np.array([row["arc_length"] for row in r])})
+
+
+@dataclass(frozen=True, eq=False)
+class FEDeviceResult:
+    """An FE analysis of a device: per-module responses, the tip, the states for output.
+
+    Attributes
+    ----------
+    device : Device
+    mesh : DeviceMesh
+    responses : dict of str to Response
+        Per module (``backend="fe"``), read on the module's signal. ``path.curvature`` is
+        the bend angle over the module length in the module's own frame (positive towards
+        its stiff layer), ``path.axial_stretch`` the centroid-arc stretch; ``path.extra``
+        holds ``bend_angle`` (module frame, rad), ``bend_angle_device`` (device frame: a
+        module turned by 180° bends negative) and ``volume_ratio``.
+    pressure : ndarray (n,)
+        Pressure at every path point (Pa).
+    stable : ndarray (n,) of bool
+    tip : ndarray (n, 3)
+        Centroid of the free end section (m).
+    tip_angle : ndarray (n,)
+        Rotation of the free end section about x (rad; positive towards −z).
+    displacements : ndarray (n, npoints, 3)
+        Nodal displacements (m) at every path point.
+    stretch : ndarray (n, ncells)
+        Largest principal stretch per element (mean over its Gauss points).
+    stats : dict
+    """
+
+    device: Device
+    mesh: DeviceMesh
+    responses: dict[str, Response]
+    pressure: np.ndarray
+    stable: np.ndarray
+    tip: np.ndarray
+    tip_angle: np.ndarray
+    displacements: np.ndarray
+    stretch: np.ndarray
+    stats: dict[str, Any] = field(default_factory=dict)
+
+    def module_at(self, name: str, pressure: float | None = None) -> dict[str, float]:
+        """Bend angle (rad, module frame) and axial stretch of a module on its observed
+        loading curve at ``pressure`` (Pa; default the highest pressure reached)."""
+        lo = self.responses[name].loading
+        p = float(np.max(lo.pressure)) if pressure is None else pressure
+        return {"pressure": p,
+                "bend_angle": float(np.interp(p, lo.pressure, lo.extra["bend_angle"])),
+                "axial_stretch": float(np.interp(p, lo.pressure, lo.axial_stretch))}
+
+    def to_dict(self, paths: bool = True) -> dict[str, Any]:
+        """JSON-able summary: per-module characteristic pressures and state at the highest
+        pressure, the final tip, statistics (SI units); with ``paths`` also every module's
+        whole path and the tip path."""
+        mods: dict[str, Any] = {}
+        for m in self.mesh.modules:
+            r = self.responses[m.name]
+            p = r.path
+            at = self.module_at(m.name)
+            mods[m.name] = {
+                "kind": m.kind, "orientation_deg": math.degrees(m.orientation),
+                "cells": m.n_cells, "length_m": m.length, "shear_modulus_pa": r.shear_modulus,
+                **r.characteristic.to_dict(),
+                "at_max_pressure": {"pressure_pa": at["pressure"],
+                                    "bend_angle_deg": math.degrees(at["bend_angle"]),
+                                    "axial_stretch": at["axial_stretch"]},
+            }
+            if paths:
+                mods[m.name]["path"] = {
+                    "pressure_pa": p.pressure.tolist(),
+                    "bend_angle_deg": np.degrees(p.extra["bend_angle"]).tolist(),
+                    "axial_stretch": p.axial_stretch.tolist(),
+                    "volume_ratio": p.extra["volume_ratio"].tolist(),
+                    "peak_stretch": p.peak_stretch.tolist(), "stable": p.stable.tolist()}
+        out = {"name": self.device.name, "modules": mods,
+               "max_pressure_pa": float(np.max(self.pressure)),
+               "final_tip": {"pressure_pa": float(self.pressure[-1]),
+                             "position_m": self.tip[-1].tolist(),
+                             "angle_deg": math.degrees(self.tip_angle[-1])},
+               "stats": self.stats}
+        if paths:
+            out["tip"] = {"pressure_pa": self.pressure.tolist(), "position_m": self.tip.tolist(),
+                          "angle_deg": np.degrees(self.tip_angle).tolist()}
+        return out
+
+
+def simulate_device(device: Device, settings: FESettings | None = None,
+                    progress: Callable[[float, int], None] | None = None) -> FEDeviceResult:
+    """Inflate a device (modules in series on one pressure line) with 3D FE and measure
+    every module from node coordinates.
+
+    Parameters
+    ----------
+    device : Device
+        One series branch of bending and stretching modules, orientations 0° or 180°
+        (:func:`fe_device_modules`; anything else raises :class:`SpecError`).
+    settings : FESettings, optional
+        As for a cell; ``p_max`` defaults to the device's design pressure ``device.pmax``
+        (Pa); the volume-ratio stop applies to each module's chambers, the stretch stop
+        (default the smallest break stretch of the wall materials) to all walls.
+    progress : callable, optional
+        ``progress(pressure_Pa, n_points)`` after every converged point.
+
+    Returns
+    -------
+    FEDeviceResult
+
+    Examples
+    --------
+    >>> from multimorph.device import device_from_spec
+    >>> from multimorph.io import load_toml
+    >>> dev = device_from_spec(load_toml("examples/fe_device.toml"))  # doctest: +SKIP
+    >>> r = simulate_device(dev, FESettings(p_max=40e3))  # doctest: +SKIP
+    >>> r.responses["base"].characteristic.critical  # doctest: +SKIP
+    """
+    s = settings or FESettings()
+    t0 = time.perf_counter()
+    mesh = device_mesh(device, s.mesh, element_size=s.element_size, half=s.half)
+    mods = mesh.modules
+    fem = require("felupe")
+    L = mods[0].cell.length
+    mu = min(m.cell.mu for m in mods)
+    fixed = np.zeros((len(mesh.points), 3), dtype=bool)
+    fixed[mesh.clamped] = True
+    fixed[mesh.mirror, 0] = True
+    bodies = [(np.flatnonzero(mesh.material == i), mat.scaled(1.0 / mu))
+              for i, mat in enumerate(mesh.materials)]
+    problem = PressureProblem(fem.Mesh(mesh.points / L, mesh.cells, "hexahedron"),
+                              [(c, m) for c, m in bodies if len(c)], mesh.chamber_points, fixed)
+    solver = make_solver(s.solver)
+    p_max = s.p_max if s.p_max is not None else device.pmax
+    breaks = [m.cell.material.break_stretch for m in mods
+              if m.cell.material.break_stretch is not None]
+    max_stretch = s.max_stretch if s.max_stretch is not None else min(breaks, default=None)
+    rec = _DeviceRecorder(mesh, problem, L, mu, p_max, s, max_stretch, progress)
+    try:
+        pe = p_max / mu
+        run = PathRun()
+        if s.method in ("auto", "pressure"):
+            run = pressure_control(problem, pe, solver, dp0=pe / 20, dp_min=pe / 400,
+                                   dp_max=pe / 8, tol=s.tol, max_steps=s.max_steps,
+                                   maxiter=8, max_cutbacks=3 if s.method == "auto" else None,
+                                   on_point=rec.add)
+        if s.method == "arc-length" or (s.method == "auto" and run.status == "stalled"):
+            p_start = run.points[-1].pressure if run.points else 0.0
+            if run.points:
+                problem.set_x(run.points[-1].x)
+            more = continuation(problem, p_start, solver, dx_max=s.dx_max, dp_max=s.dp_max,
+                                max_steps=max(s.max_steps - len(run.points), 1),
+                                on_point=rec.add)
+            run = _merge(run, more)
+    finally:
+        solver.release()
+    if len(rec.rows) < 2:
+        raise MultimorphError(f"FE analysis found no equilibrium beyond P = 0: {run.message}")
+    stats = {
+        "backend": "fe", "modules": len(mods), "ndof": int(mesh.ndof),
+        "nfree": int(problem.nfree), "ncells": int(mesh.ncells), "points": len(rec.rows) - 1,
+        "attempts": run.attempts, "cutbacks": run.cutbacks,
+        "newton_iterations": run.newton_iterations, "status": run.status,
+        "message": run.message, "stop_reason": rec.stop_reason, "solver": solver.name,
+        "solve_time": solver.time, "solves": solver.calls, "analyses": solver.analyses,
+        "factorisations": solver.factorisations, "tangents_reused": run.tangents_reused,
+        "assembly_time": problem.stats.time, "wall_time": time.perf_counter() - t0,
+        "p_max": p_max, "length_unit_m": L, "stress_unit_pa": mu,
+        "settings": {k: (v if not isinstance(v, MeshDensity) else asdict(v))
+                     for k, v in asdict(s).items()},
+    }
+    responses = {
+        m.name: build_response(rec.module_path(i), length=m.length, shear_modulus=m.cell.mu,
+                               backend="fe", break_stretch=m.cell.material.break_stretch,
+                               meta={"module": m.name, "kind": m.kind}, signal=m.cell.signal)
+        for i, m in enumerate(mods)}
+    rows = rec.rows
+    return FEDeviceResult(
+        device=device, mesh=mesh, responses=responses,
+        pressure=np.array([r["pressure"] for r in rows]),
+        stable=np.array([r["stable"] for r in rows], dtype=bool),
+        tip=np.array([r["tip"] for r in rows]),
+        tip_angle=np.array([r["tip_angle"] for r in rows]),
+        displacements=np.array(rec.u), stretch=np.array(rec.cell_stretch), stats=stats)
+
+
+def _rel(a: float | None, b: float | None) -> float | None:
+    return None if a is None or b is None or b == 0 else (a - b) / b
+
+
+def compare_device(fe: FEDeviceResult, rom: Any = None) -> dict[str, dict[str, Any]]:
+    """Each module's Pc and Ph from FE and from the reduced-model device, relative
+    differences (rom − fe)/fe.
+
+    Parameters
+    ----------
+    fe : FEDeviceResult
+    rom : multimorph.device.DeviceResult, optional
+        Default: :func:`multimorph.device.simulate_device` on the same device to the
+        pressure FE was asked to reach (``fe.stats["p_max"]``).
+
+    Returns
+    -------
+    dict
+        Per module: ``pc_fe``, ``pc_rom``, ``pc_rel``, ``ph_fe``, ``ph_rom``, ``ph_rel``
+        (Pa or None) and the ``signal`` read.
+    """
+    if rom is None:
+        from multimorph.device import simulate_device as rom_device
+
+        rom = rom_device(fe.device, float(fe.stats["p_max"]))
+    out: dict[str, dict[str, Any]] = {}
+    for m in fe.mesh.modules:
+        cf = fe.responses[m.name].characteristic
+        cr = rom.strains[m.name].response.characteristic
+        out[m.name] = {"kind": m.kind, "signal": cf.signal,
+                       "pc_fe": cf.critical, "pc_rom": cr.critical,
+                       "pc_rel": _rel(cr.critical, cf.critical),
+                       "ph_fe": cf.hardening, "ph_rom": cr.hardening,
+                       "ph_rel": _rel(cr.hardening, cf.hardening)}
+    return out
+
+
+def write_device_vtu(result: FEDeviceResult, folder: Any, stem: str = "device") -> list[str]:
+    """One VTU per path point (deformed mesh; displacement, max principal stretch, region,
+    module and material tags) and a ``.pvd`` collection indexed by pressure for ParaView."""
+    from pathlib import Path
+
+    meshio = require("meshio")
+    folder = Path(folder)
+    m = result.mesh
+    tags: Mapping[str, np.ndarray] = {"region": m.region.astype(np.int32),
+                                      "module": m.module.astype(np.int32),
+                                      "material": m.material.astype(np.int32)}
+    files, lines = [], ['<?xml version="1.0"?>',
+                        '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">',
+                        "  <Collection>"]
+    for i, (u, lam) in enumerate(zip(result.displacements, result.stretch, strict=True)):
+        name = f"{stem}_{i:04d}.vtu"
+        meshio.Mesh(m.points + u, [("hexahedron", m.cells)], point_data={"displacement": u},
+                    cell_data={"max_principal_stretch": [lam],
+                               **{k: [v] for k, v in tags.items()}}
+                    ).write(folder / name, binary=True)
+        lines.append(f'    <DataSet timestep="{i}" group="" part="0" file="{name}"'
+                     f' name="P={result.pressure[i] / 1e3:.4g}kPa"/>')
+        files.append(name)
+    lines += ["  </Collection>", "</VTKFile>"]
+    (folder / f"{stem}.pvd").write_text("\n".join(lines) + "\n")
+    return [f"{stem}.pvd", *files]
