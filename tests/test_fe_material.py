@@ -54,3 +54,35 @@ def test_zero_stress_and_shear_modulus_at_identity(material: Material) -> None:
     v[0, 1] = 1.0
     assert np.einsum("ijkl,ij,kl->", A, v, v) == pytest.approx(material.shear_modulus,
                                                                  rel=1e-6)
+
+
+@pytest.mark.parametrize("material", [m for m in MATERIALS if m.law.variables == "invariants"]
+                         + [Material("arruda-boyce", {"mu": 1.0e5, "lambda_m": 3.0})],
+                         ids=lambda m: m.model)
+def test_analytic_invariant_tangent_equals_the_tensor_route(material: Material) -> None:
+    """Invariant laws take the analytic-kinematics route; it must equal tensortrax's AD of
+    the whole W(C) (the same energy function) to round-off, at general (compressible,
+    non-symmetric) F."""
+    import felupe as fem
+
+    from multimorph.fe._material import TENSORTRAX_MATH, InvariantHyperelastic
+
+    u = felupe_umat(material)
+    assert isinstance(u, InvariantHyperelastic)
+    ref = fem.Hyperelastic(lambda C: material.energy_isochoric_C(C, TENSORTRAX_MATH))
+    rng = np.random.default_rng(7)
+    F = np.eye(3)[:, :, None, None] + 0.15 * rng.standard_normal((3, 3, 4, 50))
+    assert np.all(np.linalg.det(np.moveaxis(F, (0, 1), (-2, -1))) > 0.2)
+    P, P0 = u.gradient([F, None])[0], ref.gradient([F, None])[0]
+    A, A0 = u.hessian([F, None])[0], ref.hessian([F, None])[0]
+    assert P.shape == P0.shape and A.shape == A0.shape
+    assert np.abs(P - P0).max() <= 1e-12 * np.abs(P0).max()
+    assert np.abs(A - A0).max() <= 1e-12 * np.abs(A0).max()
+    # major symmetry A_iJkL = A_kLiJ (a hyperelastic tangent)
+    assert np.allclose(A, A.transpose(2, 3, 0, 1, 4, 5), rtol=0, atol=1e-12 * np.abs(A).max())
+
+
+def test_principal_stretch_laws_keep_the_tensor_route() -> None:
+    from multimorph.fe._material import InvariantHyperelastic
+
+    assert not isinstance(felupe_umat(MATERIALS[-1]), InvariantHyperelastic)
