@@ -1,9 +1,11 @@
-"""``multimorph fem``: 3D finite-element analysis of a unit cell (FElupe)."""
+"""``multimorph fem``: 3D finite-element analysis of a unit cell, module or device (FElupe)."""
 
 from __future__ import annotations
 
+import csv
+import math
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
@@ -13,7 +15,9 @@ __all__ = ["fem", "register"]
 
 
 def fem(
-    spec: Annotated[Path, typer.Argument(help="Cell spec (TOML) with a [cell] table.")],
+    spec: Annotated[Path, typer.Argument(
+        help="Cell spec (TOML) with a [cell] table, or a device spec with [device] and "
+             "[[module]] tables.")],
     mesh: Annotated[str, typer.Option(help="Mesh density: coarse, medium or fine.")
                     ] = "coarse",
     element_size: Annotated[str | None, typer.Option(
@@ -41,12 +45,14 @@ def fem(
     as_json: Annotated[bool, typer.Option("--json", help="Print the JSON summary.")] = False,
 ) -> None:
     """Inflate a cell (or a module of --cells cells in series) with 3D FE: path, Pc/Ph,
-    curves, VTU series, STEP/STL.
+    curves, VTU series, STEP/STL. A device spec ([device], [[module]]: bending and
+    stretching modules in series, orientation 0 or 180 deg) is meshed and inflated as one
+    body, each module measured on its own (Pc, Ph, bend angle, stretch).
 
     Example: multimorph fem examples/fe_cell.toml --mesh medium --pmax "60 kPa" --out out/fe
 
     With --compare the reduced model runs on the same spec and comparison.json holds Pc, Ph
-    and κ(P) of both with relative differences (rom − fe)/fe.
+    and κ(P) of both (per module for a device) with relative differences (rom − fe)/fe.
     """
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -59,8 +65,16 @@ def fem(
 
     with handle_errors(as_json):
         table = load_toml(spec)
+        if "device" in table:
+            if cells != 1:
+                raise SpecError("--cells: applies to a [cell] spec; a device spec gives its "
+                                "modules' cells in [[module]]")
+            _fem_device(spec, table, mesh=mesh, element_size=element_size, pmax=pmax,
+                        method=method, solver=solver, full=full, vtu=vtu, out=out,
+                        compare=compare, as_json=as_json)
+            return
         if "cell" not in table:
-            raise SpecError(f"{spec}: missing [cell] table")
+            raise SpecError(f"{spec}: missing [cell] table (or [device] with [[module]])")
         geometry = CellGeometry.from_spec(table["cell"])
         if cells < 1:
             raise SpecError(f"--cells: expected a positive number of cells, got {cells}")
@@ -128,6 +142,111 @@ def fem(
                               if comparison.signal == "axial_stretch" else
                               f"max |Δκ|/κ {rel(comparison.kappa_rel_max)}"))
         console.print(f"files in {folder}/")
+
+
+def _fem_device(spec: Path, table: dict[str, Any], *, mesh: str, element_size: str | None,
+                pmax: str | None, method: str, solver: str, full: bool, vtu: bool,
+                out: Path | None, compare: bool, as_json: bool) -> None:
+    """``multimorph fem DEVICE.toml``: parse, run :func:`multimorph.fe.simulate_device`,
+    write the files, print the per-module table."""
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from multimorph.device import device_from_spec
+    from multimorph.fe import FESettings, compare_device, fe_device_modules, simulate_device
+    from multimorph.fe._device import write_device_vtu
+    from multimorph.io import atomic_output_dir, write_json
+    from multimorph.units import to_si
+
+    device = device_from_spec(table)
+    fe_device_modules(device)  # refuse what FE cannot mesh before any work
+    p_max = to_si(pmax, "Pa", field="--pmax") if pmax else device.pmax
+    size = to_si(element_size, "m", field="--element-size") if element_size else None
+    settings = FESettings(mesh=mesh, element_size=size, half=not full, p_max=p_max,
+                          method=method, solver=solver)
+    folder = out if out is not None else Path("multimorph-out") / f"fem-{spec.stem}"
+    with Progress(TextColumn("[bold]fem device[/]"), BarColumn(),
+                  TextColumn("{task.fields[p]:.1f} kPa · {task.fields[n]} points"),
+                  TimeElapsedColumn(), console=err_console, transient=True,
+                  disable=as_json) as bar:
+        task = bar.add_task("fem", total=p_max, p=0.0, n=0)
+
+        def progress(p: float, n: int) -> None:
+            bar.update(task, completed=min(max(p, 0.0), p_max), p=p / 1e3, n=n)
+
+        result = simulate_device(device, settings, progress=progress)
+    comparison = None
+    if compare:  # the reduced-model device to 2 × p_max (it is stiffer than FE)
+        comparison = compare_device(result)
+    info: dict[str, Any] = {"backend": "fe", "device": result.to_dict(paths=False)}
+    if comparison is not None:
+        info["comparison"] = comparison
+    with atomic_output_dir(folder) as tmp:
+        files = ["summary.json", "curves.csv", "tip.csv"]
+        write_json(tmp / "summary.json", {"backend": "fe", "device": result.to_dict()})
+        with open(tmp / "curves.csv", "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(["module", "pressure_pa", "bend_angle_deg", "curvature_1_per_m",
+                        "axial_stretch", "chamber_volume_m3", "volume_ratio", "peak_stretch",
+                        "stable"])
+            for name, r in result.responses.items():
+                p = r.path
+                cols = (p.pressure, math.degrees(1.0) * p.extra["bend_angle"], p.curvature,
+                        p.axial_stretch, p.volume, p.extra["volume_ratio"], p.peak_stretch)
+                for i in range(len(p)):
+                    w.writerow([name, *(f"{c[i]:.8g}" for c in cols), int(p.stable[i])])
+        with open(tmp / "tip.csv", "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(["pressure_pa", "tip_x_m", "tip_y_m", "tip_z_m", "tip_angle_deg",
+                        "stable"])
+            for P, t, a, st in zip(result.pressure, result.tip, result.tip_angle,
+                                   result.stable, strict=True):
+                w.writerow([f"{P:.8g}", *(f"{v:.8g}" for v in t), f"{math.degrees(a):.8g}",
+                            int(st)])
+        if comparison is not None:
+            write_json(tmp / "comparison.json", comparison)
+            files.append("comparison.json")
+        if vtu:
+            files += write_device_vtu(result, tmp)
+        info["files"] = files
+    info["out"] = str(folder)
+    if as_json:
+        emit_json(info)
+        return
+    st = result.stats
+
+    def kpa(v: float | None) -> str:
+        return "—" if v is None else f"{v / 1e3:.3g}"
+
+    console.print(f"[bold]FE device[/] {device.name}: {len(result.responses)} modules, "
+                  f"{st['nfree']} DOF, {st['points']} points, {st['newton_iterations']} Newton "
+                  f"iterations, {st['solver']}, {st['wall_time']:.1f} s "
+                  f"({st['stop_reason'] or st['status']})", highlight=False)
+    top = float(result.pressure.max())
+    head = f"  {'module':<10} {'kind':<10} {'Pc':>6} {'Ph':>6} {'bend°':>6} {'stretch':>7}"
+    if comparison is not None:
+        head += f"  {'ROM Pc':>6} {'rel':>5} {'Ph':>6} {'rel':>5}"
+    console.print(f"modules (Pc, Ph in kPa, — not reached; bend towards the stiff layer and "
+                  f"centroid stretch at {top / 1e3:.3g} kPa):", highlight=False)
+    console.print(head, highlight=False, soft_wrap=True)
+    for m in result.mesh.modules:
+        pc, ph = result.activation(m.name)
+        at = result.module_at(m.name)
+        kind = f"{m.kind[:7]} {math.degrees(m.orientation):.0f}°"
+        line = (f"  {m.name[:10]:<10} {kind:<10} {kpa(pc):>6} {kpa(ph):>6} "
+                f"{math.degrees(at['bend_angle']):>6.1f} {at['axial_stretch']:>7.3f}")
+        if comparison is not None:
+            k = comparison[m.name]
+            line += (f"  {kpa(k['pc_rom']):>6} {_pct(k['pc_rel']):>5} {kpa(k['ph_rom']):>6} "
+                     f"{_pct(k['ph_rel']):>5}")
+        console.print(line, highlight=False, soft_wrap=True)
+    console.print(f"tip at {result.pressure[-1] / 1e3:.3g} kPa: y = "
+                  f"{result.tip[-1, 1] * 1e3:.2f} mm, z = {result.tip[-1, 2] * 1e3:.2f} mm, "
+                  f"angle {math.degrees(result.tip_angle[-1]):.1f}°", highlight=False)
+    console.print(f"files in {folder}/")
+
+
+def _pct(v: float | None) -> str:
+    return "—" if v is None else f"{100 * v:+.0f}%"
 
 
 def register(app: typer.Typer) -> None:
