@@ -18,6 +18,7 @@ pytest.importorskip("contique")
 from multimorph.device import Device, Module
 from multimorph.errors import SpecError
 from multimorph.fe import (
+    FEDeviceResult,
     FESettings,
     MeshDensity,
     cell_mesh,
@@ -141,7 +142,7 @@ def test_flipped_modules_bend_in_opposite_senses() -> None:
     towards its stiff layer (positive); in the device frame they cancel, so the tip turns
     back towards the axis. The magnitudes differ only by the clamp, which stiffens the first
     module (a clamped module is 4–6 % stiffer on the reference cell, docs/fe.md; measured
-    here 10–20 % on this one-element-through-the-wall mesh)."""
+    here 6–10 % on this one-element-through-the-wall mesh)."""
     g = _bend_cell()
     dev = _series(("a", "bending", g, 2, 0.0), ("b", "bending", g, 2, math.pi))
     fe = simulate_device(dev, FESettings(mesh=DENS, p_max=0.2 * MU))
@@ -150,7 +151,7 @@ def test_flipped_modules_bend_in_opposite_senses() -> None:
     assert np.all(a > 0) and np.all(b > 0) and a[-1] > 0.05
     assert np.all(pb.extra["bend_angle_device"][1:] < 0)
     ratio = b / a
-    assert np.all((ratio > 1.0) & (ratio < 1.3))
+    assert np.all((ratio > 1.0) & (ratio < 1.2))
     # rotations about one axis add: the tip turns by the sum of the device-frame angles
     tip = pa.extra["bend_angle_device"] + pb.extra["bend_angle_device"]
     assert np.allclose(fe.tip_angle, tip, rtol=0, atol=1e-9)
@@ -160,23 +161,28 @@ def test_flipped_modules_bend_in_opposite_senses() -> None:
     assert np.all(pa.extra["volume_ratio"][1:] > 1) and np.all(pb.extra["volume_ratio"][1:] > 1)
     assert fe.responses["a"].characteristic.signal == "curvature"
     # per-module Pc/Ph against the reduced model: the structure of the comparison
-    cmp = compare_device(fe, _FakeRom(fe))
-    assert cmp["a"]["pc_rel"] == pytest.approx(0.1) and cmp["b"]["ph_rel"] is None
+    top = float(fe.pressure.max())
+    cmp = compare_device(fe, _FakeRom(fe, 0.5 * top))
+    for name in ("a", "b"):
+        pc_fe, ph_fe = fe.activation(name)
+        assert cmp[name]["ph_fe"] == ph_fe
+        assert cmp[name]["pc_fe"] == pc_fe and cmp[name]["pc_rom"] == 0.5 * top
+        assert cmp[name]["ph_rom"] is None and cmp[name]["ph_rel"] is None
+        expect = None if pc_fe is None else (0.5 * top - pc_fe) / pc_fe
+        assert cmp[name]["pc_rel"] == expect
 
 
 class _FakeRom:
-    """A reduced-model stand-in with Pc 10 % above FE's and no Ph (structure test only)."""
+    """A reduced-model stand-in: every module's Pc at ``pc``, no Ph (structure test only)."""
 
-    def __init__(self, fe: object) -> None:
+    def __init__(self, fe: FEDeviceResult, pc: float) -> None:
         from dataclasses import replace
         from types import SimpleNamespace
 
-        self.strains = {}
-        for name, r in fe.responses.items():  # type: ignore[attr-defined]
-            c = r.characteristic
-            ch = replace(c, critical=None if c.critical is None else 1.1 * c.critical,
-                         hardening=None)
-            self.strains[name] = SimpleNamespace(response=SimpleNamespace(characteristic=ch))
+        self.strains = {
+            name: SimpleNamespace(response=replace(
+                r, characteristic=replace(r.characteristic, critical=pc, hardening=None)))
+            for name, r in fe.responses.items()}
 
 
 def test_stretching_module_stretches_without_bending() -> None:

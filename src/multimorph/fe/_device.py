@@ -500,6 +500,13 @@ class FEDeviceResult:
                 "bend_angle": float(np.interp(p, lo.pressure, lo.extra["bend_angle"])),
                 "axial_stretch": float(np.interp(p, lo.pressure, lo.axial_stretch))}
 
+    def activation(self, name: str) -> tuple[float | None, float | None]:
+        """A module's Pc and Ph (Pa), ``None`` where not reached: a value read at the very end
+        of the traced range (a curve still steepening there) is not an activation."""
+        r = self.responses[name]
+        c = r.characteristic
+        return _reached(c.critical, r), _reached(c.hardening, r)
+
     def to_dict(self, paths: bool = True) -> dict[str, Any]:
         """JSON-able summary: per-module characteristic pressures and state at the highest
         pressure, the final tip, statistics (SI units); with ``paths`` also every module's
@@ -513,6 +520,7 @@ class FEDeviceResult:
                 "kind": m.kind, "orientation_deg": math.degrees(m.orientation),
                 "cells": m.n_cells, "length_m": m.length, "shear_modulus_pa": r.shear_modulus,
                 **r.characteristic.to_dict(),
+                "activated": [v is not None for v in self.activation(m.name)],
                 "at_max_pressure": {"pressure_pa": at["pressure"],
                                     "bend_angle_deg": math.degrees(at["bend_angle"]),
                                     "axial_stretch": at["axial_stretch"]},
@@ -563,7 +571,8 @@ def simulate_device(device: Device, settings: FESettings | None = None,
     >>> from multimorph.io import load_toml
     >>> dev = device_from_spec(load_toml("examples/fe_device.toml"))  # doctest: +SKIP
     >>> r = simulate_device(dev, FESettings(p_max=40e3))  # doctest: +SKIP
-    >>> r.responses["base"].characteristic.critical  # doctest: +SKIP
+    >>> sorted(r.responses)  # doctest: +SKIP
+    ['seal', 'stalk']
     """
     s = settings or FESettings()
     t0 = time.perf_counter()
@@ -637,36 +646,53 @@ def _rel(a: float | None, b: float | None) -> float | None:
     return None if a is None or b is None or b == 0 else (a - b) / b
 
 
-def compare_device(fe: FEDeviceResult, rom: Any = None) -> dict[str, dict[str, Any]]:
+def _reached(value: float | None, response: Response) -> float | None:
+    """``value`` unless it sits at the end of the loading curve (a steepest rise read at the
+    highest pressure traced is not an activation, only a curve that was still steepening)."""
+    if value is None:
+        return None
+    top = float(np.max(response.loading.pressure))
+    return value if value < 0.99 * top else None
+
+
+def compare_device(fe: FEDeviceResult, rom: Any = None, *, rom_p_max: float | None = None,
+                   ) -> dict[str, dict[str, Any]]:
     """Each module's Pc and Ph from FE and from the reduced-model device, relative
     differences (rom − fe)/fe.
+
+    A Pc or Ph at the very end of a backend's traced range (the steepest rise read at the
+    highest pressure) counts as not reached (``None``), so it never enters a difference.
 
     Parameters
     ----------
     fe : FEDeviceResult
     rom : multimorph.device.DeviceResult, optional
-        Default: :func:`multimorph.device.simulate_device` on the same device to the
-        pressure FE was asked to reach (``fe.stats["p_max"]``).
+        Default: :func:`multimorph.device.simulate_device` on the same device to
+        ``rom_p_max``.
+    rom_p_max : float, optional
+        Highest pressure of the reduced model (Pa); default twice the pressure FE was asked
+        to reach (the reduced model is stiffer than FE, docs/fe.md "ROM vs FE", and is cheap).
 
     Returns
     -------
     dict
         Per module: ``pc_fe``, ``pc_rom``, ``pc_rel``, ``ph_fe``, ``ph_rom``, ``ph_rel``
-        (Pa or None) and the ``signal`` read.
+        (Pa, relative or None), the ``signal`` read and ``rom_p_max``.
     """
+    p_rom = float(rom_p_max if rom_p_max is not None else 2.0 * fe.stats["p_max"])
     if rom is None:
         from multimorph.device import simulate_device as rom_device
 
-        rom = rom_device(fe.device, float(fe.stats["p_max"]))
+        rom = rom_device(fe.device, p_rom)
     out: dict[str, dict[str, Any]] = {}
     for m in fe.mesh.modules:
-        cf = fe.responses[m.name].characteristic
-        cr = rom.strains[m.name].response.characteristic
-        out[m.name] = {"kind": m.kind, "signal": cf.signal,
-                       "pc_fe": cf.critical, "pc_rom": cr.critical,
-                       "pc_rel": _rel(cr.critical, cf.critical),
-                       "ph_fe": cf.hardening, "ph_rom": cr.hardening,
-                       "ph_rel": _rel(cr.hardening, cf.hardening)}
+        rr = rom.strains[m.name].response
+        cr = rr.characteristic
+        pc_f, ph_f = fe.activation(m.name)
+        pc_r, ph_r = _reached(cr.critical, rr), _reached(cr.hardening, rr)
+        out[m.name] = {"kind": m.kind, "signal": cr.signal, "rom_p_max": p_rom,
+                       "pc_fe": pc_f, "pc_rom": pc_r, "pc_rel": _rel(pc_r, pc_f),
+                       "ph_fe": ph_f, "ph_rom": ph_r, "ph_rel": _rel(ph_r, ph_f)}
     return out
 
 
