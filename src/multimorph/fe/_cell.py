@@ -66,6 +66,10 @@ class FESettings:
     stop_after_limit : bool
         Stop once the path has passed a pressure maximum (the pressure fell 0.5 % below it);
         enough to measure a limit-point Pc.
+    chord : float
+        Continuation: reuse the previous iterate's tangent once the residual fell below this
+        fraction of the previous one (a chord step: no assembly, no factorisation; the
+        equilibria are judged on the true residual). 0 assembles every tangent.
     """
 
     mesh: str | MeshDensity = "coarse"
@@ -81,12 +85,15 @@ class FESettings:
     dx_max: float = 0.01
     dp_max: float = 0.02
     stop_after_limit: bool = False
+    chord: float = 1e-3
 
     def __post_init__(self) -> None:
         if self.method not in ("auto", "pressure", "arc-length"):
             raise SpecError(f"method: expected auto, pressure or arc-length, got {self.method!r}")
         if self.p_max is not None and not (math.isfinite(self.p_max) and self.p_max > 0):
             raise SpecError(f"p_max: must be a positive pressure, got {self.p_max!r}")
+        if not (math.isfinite(self.chord) and 0 <= self.chord < 1):
+            raise SpecError(f"chord: expected a residual ratio in [0, 1), got {self.chord!r}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -238,6 +245,7 @@ def _merge(a: PathRun, b: PathRun) -> PathRun:
     a.newton_iterations += b.newton_iterations
     a.wall_time += b.wall_time
     a.tangents_reused += b.tangents_reused
+    a.chord_steps += b.chord_steps
     a.status, a.message = b.status, b.message
     return a
 
@@ -309,6 +317,7 @@ def simulate_cell(geometry: CellGeometry, settings: FESettings | None = None, *,
             if run.points:
                 problem.set_x(run.points[-1].x)
             more = continuation(problem, p_start, solver, dx_max=s.dx_max, dp_max=s.dp_max,
+                                chord=s.chord,
                                 max_steps=max(s.max_steps - len(run.points), 1),
                                 on_point=rec.add)
             run = _merge(run, more)
@@ -326,7 +335,7 @@ def simulate_cell(geometry: CellGeometry, settings: FESettings | None = None, *,
         "status": run.status, "message": run.message, "stop_reason": rec.stop_reason,
         "solver": solver.name, "solve_time": solver.time, "solves": solver.calls,
         "analyses": solver.analyses, "factorisations": solver.factorisations,
-        "tangents_reused": run.tangents_reused,
+        "tangents_reused": run.tangents_reused, "chord_steps": run.chord_steps,
         "assembly_time": problem.stats.time, "wall_time": time.perf_counter() - t0,
         "settings": {k: (v if not isinstance(v, MeshDensity) else asdict(v))
                      for k, v in asdict(s).items()},
