@@ -67,14 +67,14 @@ def fem(
         table = load_toml(spec)
         if "device" in table:
             if cells != 1:
-                raise SpecError("--cells: applies to a [cell] spec; a device spec gives its "
-                                "modules' cells in [[module]]")
+                raise SpecError("--cells: applies to a cell spec; a device spec gives the "
+                                "cells of each module in its module table")
             _fem_device(spec, table, mesh=mesh, element_size=element_size, pmax=pmax,
                         method=method, solver=solver, full=full, vtu=vtu, out=out,
                         compare=compare, as_json=as_json)
             return
         if "cell" not in table:
-            raise SpecError(f"{spec}: missing [cell] table (or [device] with [[module]])")
+            raise SpecError(f"{spec}: missing [cell] table (or a device table with modules)")
         geometry = CellGeometry.from_spec(table["cell"])
         if cells < 1:
             raise SpecError(f"--cells: expected a positive number of cells, got {cells}")

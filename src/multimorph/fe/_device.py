@@ -501,11 +501,13 @@ class FEDeviceResult:
                 "axial_stretch": float(np.interp(p, lo.pressure, lo.axial_stretch))}
 
     def activation(self, name: str) -> tuple[float | None, float | None]:
-        """A module's Pc and Ph (Pa), ``None`` where not reached: a value read at the very end
-        of the traced range (a curve still steepening there) is not an activation."""
+        """A module's Pc and Ph (Pa), ``None`` where not reached: a value read at either end
+        of the traced range (a curve still steepening at the top, or steepest at P = 0) is
+        not an activation, and a Ph without a Pc is none."""
         r = self.responses[name]
         c = r.characteristic
-        return _reached(c.critical, r), _reached(c.hardening, r)
+        pc = _reached(c.critical, r)
+        return pc, (None if pc is None else _reached(c.hardening, r))
 
     def to_dict(self, paths: bool = True) -> dict[str, Any]:
         """JSON-able summary: per-module characteristic pressures and state at the highest
@@ -647,12 +649,13 @@ def _rel(a: float | None, b: float | None) -> float | None:
 
 
 def _reached(value: float | None, response: Response) -> float | None:
-    """``value`` unless it sits at the end of the loading curve (a steepest rise read at the
-    highest pressure traced is not an activation, only a curve that was still steepening)."""
+    """``value`` unless it sits at either end of the loading curve: a steepest rise read at
+    the highest pressure traced is a curve still steepening, one read at P ≈ 0 a curve with
+    no activation in range (within 1 % of the range)."""
     if value is None:
         return None
     top = float(np.max(response.loading.pressure))
-    return value if value < 0.99 * top else None
+    return value if 0.01 * top < value < 0.99 * top else None
 
 
 def compare_device(fe: FEDeviceResult, rom: Any = None, *, rom_p_max: float | None = None,
@@ -660,7 +663,7 @@ def compare_device(fe: FEDeviceResult, rom: Any = None, *, rom_p_max: float | No
     """Each module's Pc and Ph from FE and from the reduced-model device, relative
     differences (rom − fe)/fe.
 
-    A Pc or Ph at the very end of a backend's traced range (the steepest rise read at the
+    A Pc or Ph at either end of a backend's traced range (e.g. the steepest rise read at the
     highest pressure) counts as not reached (``None``), so it never enters a difference.
 
     Parameters
@@ -689,7 +692,8 @@ def compare_device(fe: FEDeviceResult, rom: Any = None, *, rom_p_max: float | No
         rr = rom.strains[m.name].response
         cr = rr.characteristic
         pc_f, ph_f = fe.activation(m.name)
-        pc_r, ph_r = _reached(cr.critical, rr), _reached(cr.hardening, rr)
+        pc_r = _reached(cr.critical, rr)
+        ph_r = None if pc_r is None else _reached(cr.hardening, rr)
         out[m.name] = {"kind": m.kind, "signal": cr.signal, "rom_p_max": p_rom,
                        "pc_fe": pc_f, "pc_rom": pc_r, "pc_rel": _rel(pc_r, pc_f),
                        "ph_fe": ph_f, "ph_rom": ph_r, "ph_rel": _rel(ph_r, ph_f)}
