@@ -610,7 +610,7 @@ def simulate_device(device: Device, settings: FESettings | None = None,
                 problem.set_x(run.points[-1].x)
             more = continuation(problem, p_start, solver, dx_max=s.dx_max, dp_max=s.dp_max,
                                 max_steps=max(s.max_steps - len(run.points), 1),
-                                on_point=rec.add)
+                                chord=s.chord, on_point=rec.add)
             run = _merge(run, more)
     finally:
         solver.release()
@@ -624,7 +624,8 @@ def simulate_device(device: Device, settings: FESettings | None = None,
         "message": run.message, "stop_reason": rec.stop_reason, "solver": solver.name,
         "solve_time": solver.time, "solves": solver.calls, "analyses": solver.analyses,
         "factorisations": solver.factorisations, "tangents_reused": run.tangents_reused,
-        "assembly_time": problem.stats.time, "wall_time": time.perf_counter() - t0,
+        "chord_steps": run.chord_steps, "assembly_time": problem.stats.time,
+        "wall_time": time.perf_counter() - t0,
         "p_max": p_max, "length_unit_m": L, "stress_unit_pa": mu,
         "settings": {k: (v if not isinstance(v, MeshDensity) else asdict(v))
                      for k, v in asdict(s).items()},
