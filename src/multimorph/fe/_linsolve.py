@@ -75,6 +75,8 @@ class LinearSolver:
     analyses: int = 0
     #: numerical factorisations done (solves of an unchanged matrix reuse the last one)
     factorisations: int = 0
+    #: SuperLU: symmetric-mode factors refused by the residual check and redone with pivoting
+    pivoted_refactorisations: int = 0
 
     def __post_init__(self) -> None:
         self._pardiso: Any = None
@@ -148,11 +150,17 @@ class LinearSolver:
                         and np.array_equal(pat[0], Kc.indptr)
                         and np.array_equal(pat[1], Kc.indices) and self._same_values(Kc.data))
                 if not same:
-                    self._lu = spla.splu(Kc)
+                    self._lu = _splu_symmetric(Kc)
                     self._pattern = (Kc.indptr.copy(), Kc.indices.copy())
                     self._values = Kc.data.copy()
                     self.factorisations += 1
                 x = self._lu.solve(b)
+                if not _accurate(Kc, x, b):
+                    # a small diagonal pivot spoilt the symmetric-mode factors: partial
+                    # pivoting (SuperLU's default), slower but safe
+                    self._lu = spla.splu(Kc)
+                    self.pivoted_refactorisations += 1
+                    x = self._lu.solve(b)
         finally:
             self.time += time.perf_counter() - t
             self.calls += 1
@@ -160,6 +168,33 @@ class LinearSolver:
         if not np.all(np.isfinite(x)):
             raise NonFiniteSystemError("linear solve returned NaN/inf (singular tangent?)")
         return x
+
+
+def _splu_symmetric(K: sp.csc_matrix) -> Any:
+    """SuperLU in symmetric mode: a minimum-degree ordering of K + Kᵀ and diagonal pivots.
+
+    The tangent is symmetric, so the symmetric ordering keeps the fill of a Cholesky-like
+    factorisation; SuperLU's default (COLAMD with partial pivoting) more than doubles it on
+    a loaded tangent (fine cell mesh, 9.9k DOF: 6.3 M instead of 13.1 M entries in L + U,
+    0.6 s instead of 2.9 s). Diagonal pivots can be small on an indefinite tangent, so every
+    solve is checked (:func:`_accurate`) and redone with partial pivoting if needed.
+    """
+    return spla.splu(K, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                     options={"SymmetricMode": True})
+
+
+def _accurate(K: sp.spmatrix, x: np.ndarray, b: np.ndarray, rtol: float = 1e-10) -> bool:
+    """Whether ``x`` solves ``K x = b`` with a normwise backward error below ``rtol``.
+
+    The backward error ‖K x − b‖∞ / (‖K‖∞ ‖x‖∞ + ‖b‖∞) (per right-hand side) is about
+    machine precision for a stable factorisation even when K is ill-conditioned (near a
+    limit point), and large when small pivots made the factors unstable.
+    """
+    r = K @ x - b
+    knorm = float(abs(K).sum(axis=1).max())
+    nr = np.max(np.abs(r), axis=0)
+    scale = knorm * np.max(np.abs(x), axis=0) + np.max(np.abs(b), axis=0)
+    return bool(np.all(np.isfinite(nr)) and np.all(nr <= rtol * np.maximum(scale, 1e-300)))
 
 
 def make_solver(kind: str = "auto") -> LinearSolver:
