@@ -55,3 +55,24 @@ def test_non_finite_systems_are_refused(kind: str) -> None:
         s.solve(K, np.ones(25))
     with pytest.raises(NonFiniteSystemError):
         s.solve(_laplacian(5, 1.0), np.full(25, np.inf))
+
+
+def test_superlu_symmetric_mode_solves_indefinite_systems_and_falls_back() -> None:
+    """SuperLU factorises in symmetric mode (diagonal pivots). An indefinite but well-pivoted
+    tangent is solved that way; a tiny diagonal (a saddle-point block, where diagonal
+    pivoting is unstable) is caught by the backward-error check and solved with pivoting."""
+    rng = np.random.default_rng(3)
+    s = make_solver("superlu")
+    K = _laplacian(20, -1.3)                       # indefinite, nonsingular
+    b = rng.standard_normal(400)
+    x = s.solve(K, b)
+    assert np.linalg.norm(K @ x - b) <= 1e-10 * np.linalg.norm(b)
+    assert s.pivoted_refactorisations == 0
+    # [[εI, Bᵀ], [B, 0]]: a pivot of 1e-14 then Schur complements of 1e14
+    n = 50
+    B = sp.diags([1.0, 0.3], [0, 1], shape=(n, n))
+    S = sp.bmat([[1e-14 * sp.identity(n), B.T], [B, None]]).tocsr()
+    c = rng.standard_normal(2 * n)
+    y = s.solve(S, c)
+    assert np.linalg.norm(S @ y - c) <= 1e-10 * np.linalg.norm(c)
+    assert s.pivoted_refactorisations == 1
