@@ -187,3 +187,44 @@ def test_fe_shear_against_the_rom_twisting_kinematics() -> None:
     assert np.all(c.shear_fe[late] < 0) and np.all(c.shear_rom[late] < 0)
     assert np.all((c.ratio[late] > 1.0) & (c.ratio[late] < 5.0))
     assert np.all(c.axial_fe[late] > 0) and np.all(c.axial_rom[late] > 0)
+
+
+@pytest.mark.slow
+def test_cli_fem_tilt(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """``multimorph fem --tilt`` meshes the full tilted strip, reports its shear and writes a
+    sheared STEP/STL; a bad angle, or a tilt with a device spec, exits 2 and writes nothing."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from multimorph.cli._app import _register, app
+
+    _register()
+    spec = tmp_path / "twist.toml"
+    spec.write_text(
+        '[cell]\nlength = "10 mm"\nwidth = "12 mm"\nheight = "10 mm"\ntop_wall = "0.5 mm"\n'
+        'bottom_wall = "4 mm"\nside_wall = "2.5 mm"\nend_wall = "0.75 mm"\n'
+        'material = "dragon-skin-10"\n')
+    out = tmp_path / "out"
+    res = CliRunner().invoke(app, ["fem", str(spec), "--tilt", "30 deg", "--cells", "2",
+                                   "--element-size", "3 mm", "--pmax", "2.5 kPa",
+                                   "--no-vtu", "--out", str(out), "--json"])
+    assert res.exit_code == 0, res.output
+    info = json.loads(res.output)
+    assert info["stats"]["tilt"] == pytest.approx(BETA)
+    assert info["stats"]["settings"]["half"] is False
+    assert info["final"]["strip_shear"] < 0  # chamber axis (−sin β, cos β): γ_xy < 0
+    header = (out / "path.csv").read_text().splitlines()[0].split(",")
+    assert "shear" in header and "strip_axial_strain" in header
+    for name in ("cell.step", "cell.stl"):
+        assert (out / name).is_file(), name
+    # the STL (ASCII, gmsh) is the sheared solid: its vertices reach y < 0 on the x = 0 side
+    pts = np.array([[float(v) for v in line.split()[1:4]]
+                    for line in (out / "cell.stl").read_text().splitlines()
+                    if line.strip().startswith("vertex")])
+    assert pts[:, 1].min() < -1.0 and pts[:, 1].max() > 20.0 + 1.0  # mm, tan 30° · 6 mm
+    for bad in (["--tilt", "85 deg"], ["--tilt", "ten"]):
+        r = CliRunner().invoke(app, ["fem", str(spec), *bad, "--out", str(tmp_path / "bad")])
+        assert r.exit_code == 2, r.output
+        assert "--tilt" in r.output
+        assert not (tmp_path / "bad").exists()

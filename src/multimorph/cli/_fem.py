@@ -35,6 +35,10 @@ def fem(
     cells: Annotated[int, typer.Option(
         "--cells", help="Cells in series along the axis (a bending or stretching module "
                         "mounted at one end); 1: a single cell.")] = 1,
+    tilt: Annotated[str | None, typer.Option(
+        help="Tilt the chambers in the strip plane by this angle, e.g. '30 deg' (a twisting "
+             "strip; full model): the strip's shear is measured, and with --compare set "
+             "against the reduced model's twisting kinematics.")] = None,
     vtu: Annotated[bool, typer.Option(help="Write the VTU time series for ParaView.")
                    ] = True,
     out: Annotated[Path | None, typer.Option(
@@ -69,6 +73,9 @@ def fem(
             if cells != 1:
                 raise SpecError("--cells: applies to a cell spec; a device spec gives the "
                                 "cells of each module in its module table")
+            if tilt is not None:
+                raise SpecError("--tilt: applies to a cell spec; FE devices take bending "
+                                "and stretching modules only")
             _fem_device(spec, table, mesh=mesh, element_size=element_size, pmax=pmax,
                         method=method, solver=solver, full=full, vtu=vtu, out=out,
                         compare=compare, as_json=as_json)
@@ -80,8 +87,16 @@ def fem(
             raise SpecError(f"--cells: expected a positive number of cells, got {cells}")
         p_max = to_si(pmax, "Pa", field="--pmax") if pmax else None
         size = to_si(element_size, "m", field="--element-size") if element_size else None
-        settings = FESettings(mesh=mesh, element_size=size, half=not full, p_max=p_max,
-                              method=method, solver=solver)
+        beta = to_si(tilt, "rad", field="--tilt") if tilt is not None else 0.0
+        if tilt is not None:
+            from multimorph.fe._mesh import MAX_TILT
+
+            if not (math.isfinite(beta) and 0.0 < abs(beta) < MAX_TILT):
+                raise SpecError(f"--tilt: expected an angle with 0 < |tilt| < "
+                                f"{math.degrees(MAX_TILT):.0f} deg, got {tilt!r}")
+        # a tilted strip has no mirror plane: always the full model
+        settings = FESettings(mesh=mesh, element_size=size, half=not (full or beta),
+                              p_max=p_max, method=method, solver=solver)
         p_end = p_max if p_max is not None else geometry.mu
         folder = out if out is not None else Path("multimorph-out") / f"fem-{spec.stem}"
         with Progress(TextColumn("[bold]fem[/]"), BarColumn(),
@@ -93,10 +108,19 @@ def fem(
             def progress(p: float, n: int) -> None:
                 bar.update(task, completed=min(max(p, 0.0), p_end), p=p / 1e3, n=n)
 
-            result = simulate_cell(geometry, settings, progress=progress, n_cells=cells)
+            result = simulate_cell(geometry, settings, progress=progress, n_cells=cells,
+                                   tilt=beta)
         info = summary(result)
         comparison = None
-        if compare:
+        shear = None
+        if compare and beta:
+            from multimorph.fe._compare import compare_shear_responses
+            from multimorph.rom import simulate_cell as rom_simulate
+
+            shear = compare_shear_responses(rom_simulate(geometry, p_end), result.response,
+                                            geometry, beta)
+            info["shear_comparison"] = shear.to_dict()
+        elif compare:
             from multimorph.fe._compare import compare_responses
             from multimorph.rom import simulate_cell as rom_simulate
 
@@ -104,10 +128,10 @@ def fem(
             info["comparison"] = comparison.to_dict()
         with atomic_output_dir(folder) as tmp:
             info["files"] = write_fe_outputs(result, tmp, vtu=vtu)
-            if comparison is not None:
+            if comparison is not None or shear is not None:
                 from multimorph.io import write_json
 
-                write_json(tmp / "comparison.json", comparison.to_dict())
+                write_json(tmp / "comparison.json", (comparison or shear).to_dict())
                 info["files"].append("comparison.json")
         info["out"] = str(folder)
         if as_json:
@@ -120,6 +144,8 @@ def fem(
             return "—" if v is None else f"{v / 1e3:.3g} kPa"
 
         what = "FE cell" if cells == 1 else f"FE module of {cells} cells"
+        if beta:
+            what = f"FE tilted strip of {cells} cell{'s' if cells > 1 else ''}"
         console.print(f"[bold]{what}[/] {st['nfree']} DOF, {st['points']} points, "
                       f"{st['newton_iterations']} Newton iterations, {st['solver']}, "
                       f"{st['wall_time']:.1f} s ({st['stop_reason'] or st['status']})")
@@ -130,6 +156,16 @@ def fem(
                       f"{fin['curvature_1_per_m'] * geometry.length:.3f} per cell, bend "
                       f"{fin['bend_angle_deg']:.1f}°, V/V0 = {fin['volume_ratio']:.2f}, "
                       f"peak stretch {fin['peak_stretch']:.2f}")
+        if beta:
+            ex = result.response.path.extra
+            console.print(f"tilted strip (β = {math.degrees(beta):.3g}°): shear γ = "
+                          f"{ex['shear'][-1]:+.4f}, axial strain "
+                          f"{ex['strip_axial_strain'][-1]:+.4f} at the highest pressure")
+        if shear is not None:
+            mid = len(shear.pressure) // 2
+            console.print(f"ROM twisting kinematics vs FE: γ_fe/γ_rom = "
+                          f"{shear.ratio[mid]:.3g} at {shear.pressure[mid] / 1e3:.3g} kPa, "
+                          f"{shear.ratio[-1]:.3g} at {shear.pressure[-1] / 1e3:.3g} kPa")
         if comparison is not None:
             def rel(v: float | None) -> str:
                 return "—" if v is None else f"{100 * v:+.1f} %"

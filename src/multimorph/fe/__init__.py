@@ -1,6 +1,8 @@
 """Finite-element verification (FElupe + contique + gmsh): the only room that imports them.
 
-Structured hexahedral meshes of a cell (:func:`cell_mesh`), a nearly incompressible mixed
+Structured hexahedral meshes of a cell, a module, a tilted (twisting) strip
+(:func:`cell_mesh`) or a device of modules in series (:func:`device_mesh`), a nearly
+incompressible mixed
 u/p/J̄ model with the package's own material energies (through tensortrax), follower
 pressure on the chamber faces, pressure-controlled stepping with cutbacks and arc-length
 continuation through limit points, measurements from node coordinates, and the shared
@@ -11,6 +13,14 @@ Heavy dependencies are imported inside functions; a missing one raises
 """
 
 from multimorph.fe._cell import FEResult, FESettings, build_cell_problem, simulate_cell
+from multimorph.fe._compare import (
+    Comparison,
+    ShearComparison,
+    compare_cell,
+    compare_responses,
+    compare_shear,
+    compare_shear_responses,
+)
 from multimorph.fe._deps import MissingExtraError
 from multimorph.fe._device import (
     FE_MODULE_KINDS,
@@ -28,6 +38,7 @@ from multimorph.fe._measure import (
     circle_fit_curvature,
     line_stretch,
     peak_stretch,
+    strip_strain,
 )
 from multimorph.fe._mesh import MESH_PRESETS, CellMesh, MeshDensity, cell_mesh, resolve_density
 from multimorph.fe._problem import PressureProblem
@@ -37,6 +48,7 @@ __all__ = [
     "FE_MODULE_KINDS",
     "MESH_PRESETS",
     "CellMesh",
+    "Comparison",
     "DeviceMesh",
     "FEDeviceResult",
     "FEResult",
@@ -48,12 +60,17 @@ __all__ = [
     "PathPoint",
     "PathRun",
     "PressureProblem",
+    "ShearComparison",
     "bend_and_twist",
     "build_cell_problem",
     "cell_mesh",
     "chamber_volume",
     "circle_fit_curvature",
+    "compare_cell",
     "compare_device",
+    "compare_responses",
+    "compare_shear",
+    "compare_shear_responses",
     "continuation",
     "device_mesh",
     "fe_device_modules",
@@ -65,4 +82,5 @@ __all__ = [
     "resolve_density",
     "simulate_cell",
     "simulate_device",
+    "strip_strain",
 ]

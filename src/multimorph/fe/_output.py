@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import contextlib
 import csv
+import math
 import os
 import sys
 from collections.abc import Iterator
@@ -36,11 +37,17 @@ _CSV_COLUMNS = [
     ("arc_length_step", lambda p: p.extra["arc_length"].astype(int)),
 ]
 
+#: strip strains of full-model runs (``simulate_cell`` records them when not ``half``)
+_STRIP_KEYS = ("shear", "shear_slope", "strip_axial_strain", "strip_lateral_strain",
+               "strip_rotation")
+
 
 def summary(result: FEResult) -> dict[str, Any]:
     """JSON-able summary: characteristic pressures, final state, solver statistics."""
     r = result.response
     p = r.path
+    strip = {f"strip_{k}" if not k.startswith("strip_") else k: float(p.extra[k][-1])
+             for k in _STRIP_KEYS if k in p.extra}
     return {
         "backend": "fe",
         "characteristic": r.characteristic.to_dict(),
@@ -52,6 +59,7 @@ def summary(result: FEResult) -> dict[str, Any]:
             "axial_stretch": float(p.axial_stretch[-1]),
             "peak_stretch": float(p.peak_stretch[-1]),
             "peak_location_m": [float(v) for v in p.extra["peak_location"][-1]],
+            **strip,
         },
         "max_pressure_pa": float(np.max(p.pressure)),
         "unstable_points": int(np.sum(~p.stable)),
@@ -65,6 +73,7 @@ def summary(result: FEResult) -> dict[str, Any]:
 def write_path_csv(result: FEResult, path: Path) -> None:
     p = result.response.path
     cols = [(name, np.asarray(f(p))) for name, f in _CSV_COLUMNS]
+    cols += [(k, np.asarray(p.extra[k])) for k in _STRIP_KEYS if k in p.extra]
     with open(path, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow([c[0] for c in cols])
@@ -181,9 +190,11 @@ def _quiet_stdout() -> Iterator[None]:
         os.close(saved)
 
 
-def export_cell_solid(geometry: CellGeometry, path: Path, n_cells: int = 1) -> None:
+def export_cell_solid(geometry: CellGeometry, path: Path, n_cells: int = 1,
+                      tilt: float = 0.0) -> None:
     """Write the cell solid (box minus chamber), or ``n_cells`` of them in series, as STEP or
-    STL (by suffix) with gmsh OCC."""
+    STL (by suffix) with gmsh OCC; ``tilt`` β shears it in the strip plane as the FE mesh
+    (y' = y + (x − w/2) tan β, see :func:`~multimorph.fe.cell_mesh`)."""
     gmsh = require("gmsh")
     g = geometry
     initialised = gmsh.isInitialized()
@@ -197,7 +208,12 @@ def export_cell_solid(geometry: CellGeometry, path: Path, n_cells: int = 1) -> N
         outer = occ.addBox(0, 0, 0, g.width * s, n_cells * g.length * s, g.height * s)
         inner = [occ.addBox(g.ws * s, (k * g.length + g.df) * s, g.hb * s, g.wc * s,
                             g.dc * s, g.hc * s) for k in range(n_cells)]
-        occ.cut([(3, outer)], [(3, t) for t in inner])
+        solid, _ = occ.cut([(3, outer)], [(3, t) for t in inner])
+        if tilt:
+            k = math.tan(tilt)
+            # affine map, row-major 3 × 4: y' = y + k x − k w/2 (mm)
+            occ.affineTransform(solid, [1, 0, 0, 0, k, 1, 0, -k * 0.5 * g.width * s,
+                                        0, 0, 1, 0])
         occ.synchronize()
         if Path(path).suffix.lower() == ".stl":
             gmsh.option.setNumber("Mesh.MeshSizeMax", min(g.ht, g.ws, g.df, g.hb) * s)
@@ -225,8 +241,8 @@ def write_fe_outputs(result: FEResult, folder: Path, *, vtu: bool = True, plots:
     if vtu:
         files += write_vtu_series(result, folder)
     if cad:
-        n = result.mesh.n_cells
-        export_cell_solid(result.mesh.geometry, folder / "cell.step", n)
-        export_cell_solid(result.mesh.geometry, folder / "cell.stl", n)
+        n, tilt = result.mesh.n_cells, result.mesh.tilt
+        export_cell_solid(result.mesh.geometry, folder / "cell.step", n, tilt)
+        export_cell_solid(result.mesh.geometry, folder / "cell.stl", n, tilt)
         files += ["cell.step", "cell.stl"]
     return files
