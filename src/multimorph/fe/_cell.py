@@ -69,7 +69,8 @@ class FESettings:
     chord : float
         Continuation: reuse the previous iterate's tangent once the residual fell below this
         fraction of the previous one (a chord step: no assembly, no factorisation; the
-        equilibria are judged on the true residual). 0 assembles every tangent.
+        equilibria are judged on the true residual), and start each step's predictor from
+        the last tangent of the cycle that converged there. 0 assembles every tangent.
     """
 
     mesh: str | MeshDensity = "coarse"

@@ -202,7 +202,10 @@ class _Bordered:
     error then shrinks by about the previous relative error (≈ 10⁻³ or better), which is
     enough to pass the tolerance, for a residual evaluation and a triangular solve instead
     of a tangent assembly and a factorisation. Convergence is still judged on the true
-    residual, so the converged points are the same equilibria.
+    residual, so the converged points are the same equilibria. With chord steps on, the
+    predictor at a new converged point also takes the last tangent of the cycle that
+    converged there (its iterate is within a quadratic step of the point) instead of a fresh
+    one; contique's pre-identification and first cycle iteration then share it as before.
     """
 
     def __init__(self, problem: PressureProblem, solver: LinearSolver, *,
@@ -220,12 +223,17 @@ class _Bordered:
         self.chord_steps = 0
         self._norms: list[float] = []                   # residual norms of this cycle
         self._K_last: sp.csr_matrix | None = None       # tangent of the previous iterate
+        self._K_end: sp.csr_matrix | None = None        # last tangent of a converged cycle
 
     def fun(self, x: np.ndarray, lpf: float, *_: Any) -> np.ndarray:
         if np.array_equal(x, self.converged_x):
             # every contique cycle starts from the last converged point: restore its state
             self.problem.sync(x)
             self._norms = []
+            new_point = self._K_at is None or not np.array_equal(self._K_at[0], x)
+            if self.chord > 0 and self._K_last is not None and new_point:
+                # a new converged point: the cycle that reached it left its last tangent
+                self._K_end = self._K_last
             self._K_last = None
         with np.errstate(all="ignore"):
             r, g = self.problem.residual(x, lpf)
@@ -248,9 +256,18 @@ class _Bordered:
                 and n[-1] <= self.chord * n[-2]):
             self.chord_steps += 1
             return self._K_last
+        at_converged = np.array_equal(x, self.converged_x)
+        if at_converged and self._K_end is not None:
+            # the predictor's tangent at a new converged point: the last tangent of the
+            # cycle that converged there (its iterate is within the tolerance's reach of
+            # the point), instead of a fresh assembly and factorisation
+            K, self._K_end = self._K_end, None
+            self._K, self._K_at = K, (x.copy(), float(lpf))
+            self.tangents_reused += 1
+            return K
         with np.errstate(all="ignore"):
             K = self.problem.tangent(x, lpf)
-        if np.array_equal(x, self.converged_x):
+        if at_converged:
             self._K, self._K_at = K, (x.copy(), float(lpf))
         else:
             self._K_last = K
