@@ -17,7 +17,7 @@ import numpy as np
 
 from multimorph.errors import MultimorphError, SpecError
 from multimorph.fe._deps import require
-from multimorph.fe._linsolve import make_solver
+from multimorph.fe._linsolve import LinearSolver, make_solver
 from multimorph.fe._measure import (
     bend_and_twist,
     chamber_volume,
@@ -251,6 +251,33 @@ def _merge(a: PathRun, b: PathRun) -> PathRun:
     return a
 
 
+def trace_path(problem: PressureProblem, solver: LinearSolver, settings: FESettings,
+               p_end: float, on_point: Callable[[PathPoint], bool]) -> PathRun:
+    """Trace a pressure path to ``p_end`` (units of the problem) as ``settings.method`` says.
+
+    ``"auto"``: pressure steps (Δp from p_end/20, down to p_end/400, up to p_end/8), handing
+    over to arc-length continuation after three cutbacks in a row (a limit point or a steep
+    ballooning branch); ``"pressure"``: steps only; ``"arc-length"``: continuation from 0.
+    ``on_point`` sees every converged point and may stop the path (returns True).
+    """
+    s = settings
+    run = PathRun()
+    if s.method in ("auto", "pressure"):
+        run = pressure_control(problem, p_end, solver, dp0=p_end / 20, dp_min=p_end / 400,
+                               dp_max=p_end / 8, tol=s.tol, max_steps=s.max_steps,
+                               maxiter=8, max_cutbacks=3 if s.method == "auto" else None,
+                               on_point=on_point)
+    if s.method == "arc-length" or (s.method == "auto" and run.status == "stalled"):
+        p_start = run.points[-1].pressure if run.points else 0.0
+        if run.points:
+            problem.set_x(run.points[-1].x)
+        more = continuation(problem, p_start, solver, dx_max=s.dx_max, dp_max=s.dp_max,
+                            chord=s.chord, max_steps=max(s.max_steps - len(run.points), 1),
+                            on_point=on_point)
+        run = _merge(run, more)
+    return run
+
+
 def simulate_cell(geometry: CellGeometry, settings: FESettings | None = None, *,
                   progress: Callable[[float, int], None] | None = None,
                   n_cells: int = 1, tilt: float = 0.0) -> FEResult:
@@ -306,22 +333,7 @@ def simulate_cell(geometry: CellGeometry, settings: FESettings | None = None, *,
     rec = _Recorder(mesh, problem, L, mu, p_max, s.max_volume_ratio, max_stretch, progress,
                     s.stop_after_limit)
     try:
-        pe = p_max / mu
-        run = PathRun()
-        if s.method in ("auto", "pressure"):
-            run = pressure_control(problem, pe, solver, dp0=pe / 20, dp_min=pe / 400,
-                                   dp_max=pe / 8, tol=s.tol, max_steps=s.max_steps,
-                                   maxiter=8, max_cutbacks=3 if s.method == "auto" else None,
-                                   on_point=rec.add)
-        if s.method == "arc-length" or (s.method == "auto" and run.status == "stalled"):
-            p_start = run.points[-1].pressure if run.points else 0.0
-            if run.points:
-                problem.set_x(run.points[-1].x)
-            more = continuation(problem, p_start, solver, dx_max=s.dx_max, dp_max=s.dp_max,
-                                chord=s.chord,
-                                max_steps=max(s.max_steps - len(run.points), 1),
-                                on_point=rec.add)
-            run = _merge(run, more)
+        run = trace_path(problem, solver, s, p_max / mu, rec.add)
     finally:
         solver.release()
     if len(rec.rows) < 2:

@@ -29,7 +29,7 @@ import numpy as np
 
 from multimorph.device import Device
 from multimorph.errors import MultimorphError
-from multimorph.fe._cell import FESettings, _merge
+from multimorph.fe._cell import FESettings, trace_path
 from multimorph.fe._deps import require
 from multimorph.fe._device_mesh import (
     FE_MODULE_KINDS,
@@ -42,7 +42,7 @@ from multimorph.fe._linsolve import make_solver
 from multimorph.fe._measure import _kabsch, bend_and_twist, chamber_volume
 from multimorph.fe._mesh import MeshDensity
 from multimorph.fe._problem import PressureProblem
-from multimorph.fe._solve import PathPoint, PathRun, continuation, pressure_control
+from multimorph.fe._solve import PathPoint
 from multimorph.response import EquilibriumPath, Response, build_response
 
 __all__ = ["FE_MODULE_KINDS", "DeviceMesh", "FEDeviceResult", "compare_device", "device_mesh",
@@ -327,21 +327,7 @@ def simulate_device(device: Device, settings: FESettings | None = None,
     max_stretch = s.max_stretch if s.max_stretch is not None else min(breaks, default=None)
     rec = _DeviceRecorder(mesh, problem, L, mu, p_max, s, max_stretch, progress)
     try:
-        pe = p_max / mu
-        run = PathRun()
-        if s.method in ("auto", "pressure"):
-            run = pressure_control(problem, pe, solver, dp0=pe / 20, dp_min=pe / 400,
-                                   dp_max=pe / 8, tol=s.tol, max_steps=s.max_steps,
-                                   maxiter=8, max_cutbacks=3 if s.method == "auto" else None,
-                                   on_point=rec.add)
-        if s.method == "arc-length" or (s.method == "auto" and run.status == "stalled"):
-            p_start = run.points[-1].pressure if run.points else 0.0
-            if run.points:
-                problem.set_x(run.points[-1].x)
-            more = continuation(problem, p_start, solver, dx_max=s.dx_max, dp_max=s.dp_max,
-                                max_steps=max(s.max_steps - len(run.points), 1),
-                                chord=s.chord, on_point=rec.add)
-            run = _merge(run, more)
+        run = trace_path(problem, solver, s, p_max / mu, rec.add)
     finally:
         solver.release()
     if len(rec.rows) < 2:
