@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import math
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -12,6 +14,24 @@ import typer
 from multimorph.cli._common import console, emit_json, err_console, handle_errors
 
 __all__ = ["fem", "register"]
+
+
+@contextlib.contextmanager
+def _progress(label: str, p_end: float, quiet: bool) -> Iterator[Callable[[float, int], None]]:
+    """A transient progress bar on stderr (pressure reached, points); yields the callback
+    ``progress(pressure_pa, n_points)`` that the FE drivers call."""
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    with Progress(TextColumn(f"[bold]{label}[/]"), BarColumn(),
+                  TextColumn("{task.fields[p]:.1f} kPa · {task.fields[n]} points"),
+                  TimeElapsedColumn(), console=err_console, transient=True,
+                  disable=quiet) as bar:
+        task = bar.add_task(label, total=p_end, p=0.0, n=0)
+
+        def progress(p: float, n: int) -> None:
+            bar.update(task, completed=min(max(p, 0.0), p_end), p=p / 1e3, n=n)
+
+        yield progress
 
 
 def fem(
@@ -58,7 +78,6 @@ def fem(
     With --compare the reduced model runs on the same spec and comparison.json holds Pc, Ph
     and κ(P) of both (per module for a device) with relative differences (rom − fe)/fe.
     """
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from multimorph.errors import SpecError
     from multimorph.fe import FESettings, simulate_cell
@@ -99,15 +118,7 @@ def fem(
                               p_max=p_max, method=method, solver=solver)
         p_end = p_max if p_max is not None else geometry.mu
         folder = out if out is not None else Path("multimorph-out") / f"fem-{spec.stem}"
-        with Progress(TextColumn("[bold]fem[/]"), BarColumn(),
-                      TextColumn("{task.fields[p]:.1f} kPa · {task.fields[n]} points"),
-                      TimeElapsedColumn(), console=err_console, transient=True,
-                      disable=as_json) as bar:
-            task = bar.add_task("fem", total=p_end, p=0.0, n=0)
-
-            def progress(p: float, n: int) -> None:
-                bar.update(task, completed=min(max(p, 0.0), p_end), p=p / 1e3, n=n)
-
+        with _progress("fem", p_end, as_json) as progress:
             result = simulate_cell(geometry, settings, progress=progress, n_cells=cells,
                                    tilt=beta)
         info = summary(result)
@@ -185,7 +196,6 @@ def _fem_device(spec: Path, table: dict[str, Any], *, mesh: str, element_size: s
                 out: Path | None, compare: bool, as_json: bool) -> None:
     """``multimorph fem DEVICE.toml``: parse, run :func:`multimorph.fe.simulate_device`,
     write the files, print the per-module table."""
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from multimorph.device import device_from_spec
     from multimorph.fe import FESettings, compare_device, fe_device_modules, simulate_device
@@ -200,15 +210,7 @@ def _fem_device(spec: Path, table: dict[str, Any], *, mesh: str, element_size: s
     settings = FESettings(mesh=mesh, element_size=size, half=not full, p_max=p_max,
                           method=method, solver=solver)
     folder = out if out is not None else Path("multimorph-out") / f"fem-{spec.stem}"
-    with Progress(TextColumn("[bold]fem device[/]"), BarColumn(),
-                  TextColumn("{task.fields[p]:.1f} kPa · {task.fields[n]} points"),
-                  TimeElapsedColumn(), console=err_console, transient=True,
-                  disable=as_json) as bar:
-        task = bar.add_task("fem", total=p_max, p=0.0, n=0)
-
-        def progress(p: float, n: int) -> None:
-            bar.update(task, completed=min(max(p, 0.0), p_max), p=p / 1e3, n=n)
-
+    with _progress("fem device", p_max, as_json) as progress:
         result = simulate_device(device, settings, progress=progress)
     comparison = None
     if compare:  # the reduced-model device to 2 × p_max (it is stiffer than FE)
