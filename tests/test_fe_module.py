@@ -83,3 +83,18 @@ def test_cli_fem_refuses_a_module_without_cells(tmp_path: Path) -> None:
     assert res.exit_code != 0
     assert "--cells" in res.output
     assert not out.exists()  # nothing half-written
+
+
+def test_cli_errors_keep_square_brackets(tmp_path: Path) -> None:
+    """Error messages are plain text: a TOML table name like "[cell]" is printed as written,
+    not swallowed as rich markup."""
+    from typer.testing import CliRunner
+
+    from multimorph.cli._app import _register, app
+
+    _register()
+    spec = tmp_path / "empty.toml"
+    spec.write_text('[other]\nx = 1\n')
+    res = CliRunner().invoke(app, ["fem", str(spec), "--out", str(tmp_path / "o")])
+    assert res.exit_code == 2
+    assert "missing [cell] table" in res.output

@@ -10,6 +10,7 @@ from typing import Any, TypeVar
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 
 from multimorph.errors import MultimorphError
 from multimorph.io import to_jsonable
@@ -35,7 +36,9 @@ def fail(message: str, *, as_json: bool = False) -> None:
     message = " ".join(str(message).split())
     if as_json:
         emit_json({"error": message})
-    err_console.print(f"[bold red]error:[/] {message}", highlight=False, soft_wrap=True)
+    # the message is plain text: "[cell]" must not be read as rich markup
+    err_console.print(f"[bold red]error:[/] {escape(message)}", highlight=False,
+                      soft_wrap=True)
     raise typer.Exit(EXIT_ERROR)
 
 
