@@ -20,7 +20,16 @@ import numpy as np
 
 from multimorph.device import Device, Module
 from multimorph.errors import SpecError
-from multimorph.fe._mesh import _HEX_FACES, BOTTOM, WALL, MeshDensity, _axis, resolve_density
+from multimorph.fe._mesh import (
+    _HEX_FACES,
+    BOTTOM,
+    WALL,
+    MeshDensity,
+    _axis,
+    _chamber_faces,
+    _compact,
+    resolve_density,
+)
 from multimorph.materials import Material
 
 __all__ = ["FE_MODULE_KINDS", "DeviceMesh", "device_mesh", "fe_device_modules"]
@@ -244,11 +253,7 @@ def device_mesh(device: Device, mesh: str | MeshDensity = "coarse", *,
                & (cen[:, 2] > per("z0")) & (cen[:, 2] < per("z1")))
     keep = in_box & ~chamber
     cells, cen, mod = cells[keep], cen[keep], mod[keep]
-    used = np.unique(cells)
-    renum = -np.ones(len(pts), dtype=np.int64)
-    renum[used] = np.arange(len(used))
-    pts = pts[used]
-    cells = renum[cells]
+    pts, cells = _compact(pts, cells)
     bot = np.array([q["bot"] for q in geo])[mod]
     region = np.where((cen[:, 2] > bot[:, 0]) & (cen[:, 2] < bot[:, 1]), BOTTOM,
                       WALL).astype(np.int8)
@@ -275,11 +280,7 @@ def device_mesh(device: Device, mesh: str | MeshDensity = "coarse", *,
                 inside &= (p_ > l_ - tol) & (p_ < h_ + tol)
                 on_plane |= (np.abs(p_ - l_) < tol) | (np.abs(p_ - h_) < tol)
             chamber_points |= inside & on_plane
-    faces = cells[:, _HEX_FACES].reshape(-1, 4)
-    _, inv, counts = np.unique(np.sort(faces, axis=1), axis=0, return_inverse=True,
-                               return_counts=True)
-    on = (counts[inv.ravel()] == 1) & np.all(chamber_points[faces], axis=1)
-    ch = faces[on][:, ::-1].copy()  # normals out of the chamber
+    ch, on = _chamber_faces(cells, chamber_points)
     face_module = np.repeat(mod, len(_HEX_FACES))[on]
 
     def section(y: float, q: dict[str, float]) -> np.ndarray:

@@ -205,6 +205,30 @@ _HEX_FACES = np.array([[0, 3, 2, 1], [4, 5, 6, 7], [0, 1, 5, 4],
                        [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]])
 
 
+def _compact(points: np.ndarray, cells: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Drop the points no cell uses and renumber the connectivity."""
+    used = np.unique(cells)
+    renum = -np.ones(len(points), dtype=np.int64)
+    renum[used] = np.arange(len(used))
+    return points[used], renum[cells]
+
+
+def _chamber_faces(cells: np.ndarray, chamber_points: np.ndarray,
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """The boundary quads whose nodes all lie on a chamber surface.
+
+    Returns the faces (k, 4), ordered so that their normal points out of the chamber, and
+    the mask over all ``len(cells) · 6`` hexahedron faces that selected them (cell-major,
+    for per-cell tags). The solid's outward normal points *into* the chamber, so the faces
+    are reversed (the volume integral wants the chamber's outward normal).
+    """
+    faces = cells[:, _HEX_FACES].reshape(-1, 4)
+    _, inv, counts = np.unique(np.sort(faces, axis=1), axis=0, return_inverse=True,
+                               return_counts=True)
+    on = (counts[inv.ravel()] == 1) & np.all(chamber_points[faces], axis=1)
+    return faces[on][:, ::-1].copy(), on
+
+
 def cell_mesh(geometry: CellGeometry, mesh: str | MeshDensity = "coarse", *,
               element_size: float | None = None, half: bool = True, n_cells: int = 1,
               tilt: float = 0.0) -> CellMesh:
@@ -291,11 +315,7 @@ def cell_mesh(geometry: CellGeometry, mesh: str | MeshDensity = "coarse", *,
               & (cen[:, 2] > z0) & (cen[:, 2] < z1))
     cells = cells[~inside]
     cen = cen[~inside]
-    used = np.unique(cells)
-    renum = -np.ones(len(pts), dtype=np.int64)
-    renum[used] = np.arange(len(used))
-    pts = pts[used]
-    cells = renum[cells]
+    pts, cells = _compact(pts, cells)
     region = np.where(cen[:, 2] < g.hb, BOTTOM, WALL).astype(np.int8)
 
     tol = 1e-9 * max(w, L, H)
@@ -310,15 +330,7 @@ def cell_mesh(geometry: CellGeometry, mesh: str | MeshDensity = "coarse", *,
                     | (np.abs(pz - z0) < tol) | (np.abs(pz - z1) < tol))
         chamber_points |= in_box & on_plane
 
-    faces = cells[:, _HEX_FACES].reshape(-1, 4)
-    key = np.sort(faces, axis=1)
-    _, inv, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
-    boundary = counts[inv.ravel()] == 1
-    on_chamber = np.all(chamber_points[faces], axis=1)
-    ch = faces[boundary & on_chamber]
-    # the faces come with the solid's outward normal, which points *into* the chamber:
-    # reverse them so that the normal points out of the chamber (for the volume integral)
-    ch = ch[:, ::-1].copy()
+    ch, _ = _chamber_faces(cells, chamber_points)
 
     clamped = np.abs(py) < tol
     mirror = (np.abs(px - w / 2) < tol) if half else np.zeros(len(pts), dtype=bool)
