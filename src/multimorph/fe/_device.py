@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
@@ -418,28 +418,11 @@ def compare_device(fe: FEDeviceResult, rom: Any = None, *, rom_p_max: float | No
 
 
 def write_device_vtu(result: FEDeviceResult, folder: Any, stem: str = "device") -> list[str]:
-    """One VTU per path point (deformed mesh; displacement, max principal stretch, region,
-    module and material tags) and a ``.pvd`` collection indexed by pressure for ParaView."""
-    from pathlib import Path
+    """The device's VTU series (:func:`~multimorph.fe._output.write_hex_series`), tagged by
+    region, module and material."""
+    from multimorph.fe._output import write_hex_series
 
-    meshio = require("meshio")
-    folder = Path(folder)
     m = result.mesh
-    tags: Mapping[str, np.ndarray] = {"region": m.region.astype(np.int32),
-                                      "module": m.module.astype(np.int32),
-                                      "material": m.material.astype(np.int32)}
-    files, lines = [], ['<?xml version="1.0"?>',
-                        '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">',
-                        "  <Collection>"]
-    for i, (u, lam) in enumerate(zip(result.displacements, result.stretch, strict=True)):
-        name = f"{stem}_{i:04d}.vtu"
-        meshio.Mesh(m.points + u, [("hexahedron", m.cells)], point_data={"displacement": u},
-                    cell_data={"max_principal_stretch": [lam],
-                               **{k: [v] for k, v in tags.items()}}
-                    ).write(folder / name, binary=True)
-        lines.append(f'    <DataSet timestep="{i}" group="" part="0" file="{name}"'
-                     f' name="P={result.pressure[i] / 1e3:.4g}kPa"/>')
-        files.append(name)
-    lines += ["  </Collection>", "</VTKFile>"]
-    (folder / f"{stem}.pvd").write_text("\n".join(lines) + "\n")
-    return [f"{stem}.pvd", *files]
+    return write_hex_series(folder, stem, m.points, m.cells, result.displacements,
+                            result.stretch, result.pressure,
+                            {"region": m.region, "module": m.module, "material": m.material})

@@ -11,7 +11,7 @@ import csv
 import math
 import os
 import sys
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -81,30 +81,39 @@ def write_path_csv(result: FEResult, path: Path) -> None:
             w.writerow([f"{c[1][i]:.8g}" for c in cols])
 
 
-def write_vtu_series(result: FEResult, folder: Path, stem: str = "cell") -> list[str]:
-    """One VTU per path point (deformed mesh, displacement, max principal stretch, region)
-    and a ``.pvd`` collection indexed by pressure (kPa) that ParaView opens as a series."""
+def write_hex_series(folder: Path, stem: str, points: np.ndarray, cells: np.ndarray,
+                     displacements: Sequence[np.ndarray], stretch: Sequence[np.ndarray],
+                     pressure: Sequence[float], tags: Mapping[str, np.ndarray]) -> list[str]:
+    """One VTU per path point (the deformed hexahedral mesh with its displacement, max
+    principal stretch and integer cell ``tags``) and a ``.pvd`` collection indexed by
+    pressure (kPa) that ParaView opens as a time series; returns the file names."""
     meshio = require("meshio")
-    m = result.mesh
+    folder = Path(folder)
+    tags = {k: np.asarray(v).astype(np.int32) for k, v in tags.items()}
     files = []
     lines = ['<?xml version="1.0"?>',
              '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">',
              "  <Collection>"]
-    for i, (u, lam) in enumerate(zip(result.displacements, result.stretch, strict=True)):
+    for i, (u, lam) in enumerate(zip(displacements, stretch, strict=True)):
         name = f"{stem}_{i:04d}.vtu"
-        mesh = meshio.Mesh(
-            m.points + u, [("hexahedron", m.cells)],
-            point_data={"displacement": u},
-            cell_data={"max_principal_stretch": [lam], "region": [m.region.astype(np.int32)]},
-        )
-        mesh.write(folder / name, binary=True)
-        p_kpa = float(result.response.path.pressure[i]) / 1e3
+        meshio.Mesh(points + u, [("hexahedron", cells)], point_data={"displacement": u},
+                    cell_data={"max_principal_stretch": [lam],
+                               **{k: [v] for k, v in tags.items()}},
+                    ).write(folder / name, binary=True)
         lines.append(f'    <DataSet timestep="{i}" group="" part="0" file="{name}"'
-                     f' name="P={p_kpa:.4g}kPa"/>')
+                     f' name="P={float(pressure[i]) / 1e3:.4g}kPa"/>')
         files.append(name)
     lines += ["  </Collection>", "</VTKFile>"]
     (folder / f"{stem}.pvd").write_text("\n".join(lines) + "\n")
     return [f"{stem}.pvd", *files]
+
+
+def write_vtu_series(result: FEResult, folder: Path, stem: str = "cell") -> list[str]:
+    """The cell's VTU series (:func:`write_hex_series`, tagged by ``region``)."""
+    m = result.mesh
+    return write_hex_series(folder, stem, m.points, m.cells, result.displacements,
+                            result.stretch, result.response.path.pressure,
+                            {"region": m.region})
 
 
 def plot_curves(result: FEResult, path: Path) -> None:
