@@ -83,6 +83,7 @@ class LinearSolver:
         self._pattern: tuple[np.ndarray, np.ndarray] | None = None
         self._values: np.ndarray | None = None   # entries of the matrix last factorised
         self._lu: Any = None
+        self._knorm = 0.0                          # ‖K‖∞ of the matrix last factorised
         if self.name == "pardiso-sym-indef":
             import pypardiso
 
@@ -153,9 +154,10 @@ class LinearSolver:
                     self._lu = _splu_symmetric(Kc)
                     self._pattern = (Kc.indptr.copy(), Kc.indices.copy())
                     self._values = Kc.data.copy()
+                    self._knorm = _inf_norm(Kc)
                     self.factorisations += 1
                 x = self._lu.solve(b)
-                if not _accurate(Kc, x, b):
+                if not _accurate(Kc, self._knorm, x, b):
                     # a small diagonal pivot spoilt the symmetric-mode factors: partial
                     # pivoting (SuperLU's default), slower but safe
                     self._lu = spla.splu(Kc)
@@ -183,7 +185,13 @@ def _splu_symmetric(K: sp.csc_matrix) -> Any:
                      options={"SymmetricMode": True})
 
 
-def _accurate(K: sp.spmatrix, x: np.ndarray, b: np.ndarray, rtol: float = 1e-10) -> bool:
+def _inf_norm(K: sp.spmatrix) -> float:
+    """‖K‖∞, the largest absolute row sum."""
+    return float(abs(K).sum(axis=1).max())
+
+
+def _accurate(K: sp.spmatrix, knorm: float, x: np.ndarray, b: np.ndarray,
+              rtol: float = 1e-10) -> bool:
     """Whether ``x`` solves ``K x = b`` with a normwise backward error below ``rtol``.
 
     The backward error ‖K x − b‖∞ / (‖K‖∞ ‖x‖∞ + ‖b‖∞) (per right-hand side) is about
@@ -191,7 +199,6 @@ def _accurate(K: sp.spmatrix, x: np.ndarray, b: np.ndarray, rtol: float = 1e-10)
     limit point), and large when small pivots made the factors unstable.
     """
     r = K @ x - b
-    knorm = float(abs(K).sum(axis=1).max())
     nr = np.max(np.abs(r), axis=0)
     scale = knorm * np.max(np.abs(x), axis=0) + np.max(np.abs(b), axis=0)
     return bool(np.all(np.isfinite(nr)) and np.all(nr <= rtol * np.maximum(scale, 1e-300)))
