@@ -31,9 +31,10 @@ def build_response(path: EquilibriumPath, *, length: float, shear_modulus: float
         Stretch at break of the wall material, for the failure pressure.
     meta : dict, optional
         Solver statistics (JSON-able).
-    signal : {"curvature", "axial_stretch"}
+    signal : {"curvature", "axial_stretch", "twist_rate"}
         What Pc and Ph are read on (see :func:`characteristic_pressures`): the axial stretch
-        for a mirror-symmetric stretching cell, which does not bend.
+        for a mirror-symmetric stretching cell, which does not bend; the twist rate for a
+        whole twisting module (FE).
     """
     loading, unloading = observed_curves(path)
     char = characteristic_pressures(path, loading=loading, break_stretch=break_stretch,

@@ -41,7 +41,7 @@ __all__ = ["SIGNALS", "SNAP_FRACTION", "characteristic_pressures", "critical_pre
            "hardening_pressure"]
 
 #: Path quantities the characteristic pressures can be read on.
-SIGNALS = ("curvature", "axial_stretch")
+SIGNALS = ("curvature", "axial_stretch", "twist_rate")
 
 #: Least κ jump of a snap, as a fraction of the path's κ range, for a fold to count as the
 #: activation (and for a snap to restart the search for the hardening knee).
@@ -180,9 +180,10 @@ def characteristic_pressures(path: EquilibriumPath, *, loading: EquilibriumPath 
         Its observed loading curve (computed with :func:`observed_curves` if omitted).
     break_stretch : float, optional
         Uniaxial stretch at break of the wall material (-).
-    signal : {"curvature", "axial_stretch"}
+    signal : {"curvature", "axial_stretch", "twist_rate"}
         The path quantity whose activation and hardening define Pc and Ph: κ (bending and
-        twisting cells) or the axial stretch (mirror-symmetric stretching cells).
+        twisting cells), the axial stretch (mirror-symmetric stretching cells) or the twist
+        rate (a whole twisting module in FE, in the sense of its tilt).
 
     Returns
     -------
