@@ -23,7 +23,6 @@ from multimorph.fe._measure import (
     chamber_volume,
     circle_fit_curvature,
     line_stretch,
-    peak_stretch,
     strip_strain,
 )
 from multimorph.fe._mesh import BOTTOM, WALL, CellMesh, MeshDensity, cell_mesh
@@ -181,9 +180,11 @@ class _Recorder:
             twist += turn * round((self.rows[-1]["twist_angle"] - twist) / turn)
         vol = chamber_volume(x, m.chamber_faces, mirror_x=g.width / 2 if m.half else None)
         F = self.problem.deformation_gradient()
-        lam, _, cell = peak_stretch(F)
         C = np.einsum("kiqc,kjqc->qcij", F, F)
-        cs = np.sqrt(np.linalg.eigvalsh(C)[..., -1]).mean(axis=0)
+        ev = np.sqrt(np.linalg.eigvalsh(C)[..., -1])  # (q, cells), as peak_stretch does
+        cell = int(np.unravel_index(np.argmax(ev), ev.shape)[1])
+        lam = float(ev.max())
+        cs = ev.mean(axis=0)
         loc = m.points[m.cells[cell]].mean(axis=0)
         self.rows.append({
             "pressure": pt.pressure * self.mu, "curvature": kappa,

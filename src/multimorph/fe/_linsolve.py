@@ -16,6 +16,7 @@ clean :class:`NonFiniteSystemError` that the step control answers with a cutback
 
 from __future__ import annotations
 
+import importlib.metadata
 import os
 import time
 from dataclasses import dataclass
@@ -34,6 +35,27 @@ class NonFiniteSystemError(MultimorphError, ArithmeticError):
     """The tangent or the right-hand side contains NaN or inf."""
 
 
+def _name_mkl_runtime() -> None:
+    """Tell pypardiso where the MKL wheel's runtime library is.
+
+    Without ``PYPARDISO_MKL_RT``, every ``PyPardisoSolver()`` (one at pypardiso's import,
+    one per solver of ours) searches ``sys.prefix`` recursively for it: 0.65 s each in our
+    virtual environment, a sixtieth of a whole fine-mesh path. The ``mkl`` distribution's
+    file list names it directly. A path set by the user is kept.
+    """
+    if os.environ.get("PYPARDISO_MKL_RT"):
+        return
+    try:
+        files = importlib.metadata.files("mkl") or []
+    except importlib.metadata.PackageNotFoundError:
+        return
+    found = sorted((str(f.locate().resolve()) for f in files if "mkl_rt" in f.name), key=len)
+    for path in found:
+        if os.path.isfile(path):
+            os.environ["PYPARDISO_MKL_RT"] = path
+            return
+
+
 def pardiso_available() -> bool:
     """Whether pypardiso (MKL) can be imported (cached after the first call)."""
     global _PARDISO_OK
@@ -41,6 +63,7 @@ def pardiso_available() -> bool:
         if os.environ.get("MULTIMORPH_NO_PARDISO"):
             _PARDISO_OK = False
         else:
+            _name_mkl_runtime()
             try:
                 import pypardiso  # noqa: F401
 
@@ -84,7 +107,9 @@ class LinearSolver:
         self._values: np.ndarray | None = None   # entries of the matrix last factorised
         self._lu: Any = None
         self._knorm = 0.0                          # ‖K‖∞ of the matrix last factorised
+        self._triu: tuple[np.ndarray, ...] | None = None  # upper-triangle map of a pattern
         if self.name == "pardiso-sym-indef":
+            _name_mkl_runtime()
             import pypardiso
 
             self._pardiso = pypardiso.PyPardisoSolver(mtype=-2)
@@ -96,6 +121,23 @@ class LinearSolver:
         self._pattern = None
         self._values = None
         self._lu = None
+
+    def _upper(self, K: sp.csr_matrix) -> sp.csr_matrix:
+        """The upper triangle of ``K`` (sorted CSR); which entries it takes is worked out
+        once per pattern (the tangent's pattern is fixed along a path)."""
+        c = self._triu
+        if c is None or not (np.array_equal(c[0], K.indptr) and np.array_equal(c[1], K.indices)):
+            K = K.copy()
+            K.sum_duplicates()                          # canonical: sorted, no duplicates
+            n = K.shape[0]
+            rows = np.repeat(np.arange(n), np.diff(K.indptr))
+            keep = np.flatnonzero(K.indices >= rows)
+            indptr = np.concatenate([[0], np.cumsum(np.bincount(rows[keep], minlength=n))])
+            c = self._triu = (K.indptr.copy(), K.indices.copy(), keep,
+                              indptr.astype(K.indptr.dtype), K.indices[keep])
+        U = sp.csr_matrix((K.data[c[2]], c[4].copy(), c[3].copy()), shape=K.shape)
+        U.has_sorted_indices = True
+        return U
 
     def _same_values(self, data: np.ndarray) -> bool:
         return self._values is not None and np.array_equal(self._values, data)
@@ -140,9 +182,7 @@ class LinearSolver:
         t = time.perf_counter()
         try:
             if self._pardiso is not None:
-                U = sp.triu(K, format="csr")
-                U.sort_indices()
-                x = self._pardiso_solve(U, b)
+                x = self._pardiso_solve(self._upper(K), b)
                 self.inertia = (int(self._pardiso.iparm[21]), int(self._pardiso.iparm[22]))
             else:
                 Kc = K.tocsc()

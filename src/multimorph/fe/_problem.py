@@ -50,6 +50,61 @@ class AssemblyStats:
         return self.vector_time + self.matrix_time
 
 
+class _ActiveSum:
+    """Sums sparse matrices of fixed patterns, restricted to the active DOF, into one CSR.
+
+    FElupe assembles each body's tangent (and the pressure's) on all DOF with a pattern that
+    stays the same along a path. The positions of their entries in the summed, restricted
+    matrix are computed once; every later call is one ``bincount`` per matrix instead of
+    sparse additions, a format conversion and a row/column slice (about 15 ms per tangent
+    at 10k DOF). The result is canonical CSR (sorted, no duplicates) and keeps explicit
+    zeros, so its pattern, and the solver's symbolic analysis, stay the same along a path.
+    A matrix whose pattern differs from the cached one rebuilds the maps.
+    """
+
+    def __init__(self, active: np.ndarray, n_all: int) -> None:
+        self.n = len(active)
+        self._pos = np.full(n_all, -1, dtype=np.int64)
+        self._pos[active] = np.arange(self.n)
+        self._patterns: list[tuple[np.ndarray, np.ndarray]] = []
+        self._maps: list[np.ndarray] = []
+        self._indptr = self._indices = np.zeros(0, dtype=np.int32)
+        self.nnz = 0
+
+    def _matches(self, mats: Sequence[sp.csr_matrix]) -> bool:
+        return len(mats) == len(self._patterns) and all(
+            np.array_equal(m.indptr, ip) and np.array_equal(m.indices, ix)
+            for m, (ip, ix) in zip(mats, self._patterns, strict=True))
+
+    def _build(self, mats: Sequence[sp.csr_matrix]) -> None:
+        n, pos = self.n, self._pos
+        keys = []
+        for m in mats:
+            rows = pos[np.repeat(np.arange(m.shape[0]), np.diff(m.indptr))]
+            cols = pos[m.indices]
+            keys.append(np.where((rows >= 0) & (cols >= 0), rows * n + cols, -1))
+        union = np.unique(np.concatenate([k[k >= 0] for k in keys]))
+        self.nnz = len(union)
+        # entries on a fixed DOF go to one extra slot, dropped after the sum
+        self._maps = [np.where(k >= 0, np.searchsorted(union, k), self.nnz) for k in keys]
+        self._patterns = [(m.indptr.copy(), m.indices.copy()) for m in mats]
+        counts = np.bincount(union // n, minlength=n)
+        self._indptr = np.concatenate([[0], np.cumsum(counts)]).astype(np.int32)
+        self._indices = (union % n).astype(np.int32)
+
+    def __call__(self, mats: Sequence[sp.csr_matrix], weights: Sequence[float],
+                 ) -> sp.csr_matrix:
+        if not self._matches(mats):
+            self._build(mats)
+        data = np.zeros(self.nnz + 1)
+        for m, w, idx in zip(mats, weights, self._maps, strict=True):
+            data += w * np.bincount(idx, weights=m.data, minlength=self.nnz + 1)
+        K = sp.csr_matrix((data[:-1], self._indices.copy(), self._indptr.copy()),
+                          shape=(self.n, self.n))
+        K.has_canonical_format = True
+        return K
+
+
 class _MeanDilatationBody:
     """A nearly incompressible FElupe body whose dual fields are set exactly before use."""
 
@@ -135,6 +190,7 @@ class PressureProblem:
         self.active = np.flatnonzero(~self.fixed.ravel())
         self.dim = dim
         self._last_x: np.ndarray | None = None
+        self._sum = _ActiveSum(self.active, self.fixed.size)
 
     # ------------------------------------------------------------------ state
     @property
@@ -197,17 +253,12 @@ class PressureProblem:
         if self._last_x is None or not np.array_equal(self._last_x, x):
             self.residual(x, p)
         t = time.perf_counter()
-        K = None
-        for b in self._bodies:
-            Kb = b.matrix()
-            K = Kb if K is None else K + Kb
-        Kp = self._pressure.assemble.matrix(pressure=1.0)
-        K = (K - p * Kp).tocsr()
-        a = self.active
-        K = K[a][:, a]
+        mats = [b.matrix().tocsr() for b in self._bodies]
+        mats.append(self._pressure.assemble.matrix(pressure=1.0).tocsr())
+        K = self._sum(mats, [1.0] * len(self._bodies) + [-p])
         self.stats.matrix_time += time.perf_counter() - t
         self.stats.matrices += 1
-        return K.tocsr()
+        return K
 
     def deformation_gradient(self) -> np.ndarray:
         """F at the quadrature points, shape (3, 3, q, cells) (plane/axisymmetric: 3×3)."""
