@@ -67,6 +67,10 @@ def fem(
         "--compare", help="Also run the reduced model and report Pc, Ph, κ(P) side by side.")
                        ] = False,
     as_json: Annotated[bool, typer.Option("--json", help="Print the JSON summary.")] = False,
+    module: Annotated[str | None, typer.Option(
+        "--module", help="Device spec: run FE of this one module, clamped at its start (a "
+                         "twisting module: its strips around the shaft; a bending or "
+                         "stretching module: one copy as a one-module device).")] = None,
 ) -> None:
     """Inflate a cell (or a module of --cells cells in series) with 3D FE: path, Pc/Ph,
     curves, VTU series, STEP/STL. A device spec ([device], [[module]]: bending and
@@ -77,6 +81,10 @@ def fem(
 
     With --compare the reduced model runs on the same spec and comparison.json holds Pc, Ph
     and κ(P) of both (per module for a device) with relative differences (rom − fe)/fe.
+
+    With --module NAME (device spec) only that module runs: a twisting module as its strips
+    around the shaft, measured by the twist angle of its free end; --compare sets the twist
+    angle, axial stretch, Pc and Ph against the reduced model's module strains.
     """
 
     from multimorph.errors import SpecError
@@ -88,6 +96,17 @@ def fem(
 
     with handle_errors(as_json):
         table = load_toml(spec)
+        if module is not None:
+            if "device" not in table:
+                raise SpecError(f"--module: applies to a device spec ([device] and [[module]] "
+                                f"tables); {spec} has none")
+            if cells != 1 or tilt is not None:
+                raise SpecError(f"--{'cells' if cells != 1 else 'tilt'}: applies to a cell "
+                                f"spec; with --module the module table gives them")
+            _fem_module(spec, table, module, mesh=mesh, element_size=element_size, pmax=pmax,
+                        method=method, solver=solver, full=full, vtu=vtu, out=out,
+                        compare=compare, as_json=as_json)
+            return
         if "device" in table:
             if cells != 1:
                 raise SpecError("--cells: applies to a cell spec; a device spec gives the "
@@ -193,9 +212,10 @@ def fem(
 
 def _fem_device(spec: Path, table: dict[str, Any], *, mesh: str, element_size: str | None,
                 pmax: str | None, method: str, solver: str, full: bool, vtu: bool,
-                out: Path | None, compare: bool, as_json: bool) -> None:
+                out: Path | None, compare: bool, as_json: bool, device: Any = None) -> None:
     """``multimorph fem DEVICE.toml``: parse, run :func:`multimorph.fe.simulate_device`,
-    write the files, print the per-module table."""
+    write the files, print the per-module table (``device``: run this one instead of the
+    spec's)."""
 
     from multimorph.device import device_from_spec
     from multimorph.fe import FESettings, compare_device, fe_device_modules, simulate_device
@@ -203,7 +223,7 @@ def _fem_device(spec: Path, table: dict[str, Any], *, mesh: str, element_size: s
     from multimorph.io import atomic_output_dir, write_json
     from multimorph.units import to_si
 
-    device = device_from_spec(table)
+    device = device if device is not None else device_from_spec(table)
     fe_device_modules(device)  # refuse what FE cannot mesh before any work
     p_max = to_si(pmax, "Pa", field="--pmax") if pmax else device.pmax
     size = to_si(element_size, "m", field="--element-size") if element_size else None
@@ -280,6 +300,94 @@ def _fem_device(spec: Path, table: dict[str, Any], *, mesh: str, element_size: s
     console.print(f"tip at {result.pressure[-1] / 1e3:.3g} kPa: y = "
                   f"{result.tip[-1, 1] * 1e3:.2f} mm, z = {result.tip[-1, 2] * 1e3:.2f} mm, "
                   f"angle {math.degrees(result.tip_angle[-1]):.1f}°", highlight=False)
+    console.print(f"files in {folder}/")
+
+
+def _fem_module(spec: Path, table: dict[str, Any], name: str, *, mesh: str,
+                element_size: str | None, pmax: str | None, method: str, solver: str,
+                full: bool, vtu: bool, out: Path | None, compare: bool, as_json: bool) -> None:
+    """``multimorph fem DEVICE.toml --module NAME``: one module of a device spec, clamped at
+    its start. Twisting: :func:`multimorph.fe.simulate_twisting_module`; bending and
+    stretching: one copy of the module as a one-module device (the device route)."""
+    from dataclasses import replace
+
+    from multimorph.device import Device, device_from_spec
+    from multimorph.errors import SpecError
+    from multimorph.fe import (
+        FE_MODULE_KINDS,
+        FESettings,
+        compare_twisting,
+        simulate_twisting_module,
+    )
+    from multimorph.fe._twist import write_twist_csv, write_twist_vtu
+    from multimorph.io import atomic_output_dir, write_json
+    from multimorph.units import to_si
+
+    device = device_from_spec(table)
+    names = [m.name for m in device.modules]
+    if name not in names:
+        raise SpecError(f"--module: no module named {name!r} in {spec} (modules: "
+                        f"{', '.join(names)})")
+    mod = device.module(name)
+    if mod.kind in FE_MODULE_KINDS:
+        one = Device((replace(mod, start=0.0, attach_to=None, branch="main", count=1,
+                              radius=0.0),), name=f"{device.name}: {name}", pmax=device.pmax)
+        _fem_device(spec, table, mesh=mesh, element_size=element_size, pmax=pmax,
+                    method=method, solver=solver, full=full, vtu=vtu, out=out,
+                    compare=compare, as_json=as_json, device=one)
+        return
+    if mod.kind != "twisting":
+        raise SpecError(f"module {name!r}.kind: {mod.kind!r} is not supported by FE (twisting, "
+                        f"{', '.join(FE_MODULE_KINDS)})")
+    p_max = to_si(pmax, "Pa", field="--pmax") if pmax else device.pmax
+    size = to_si(element_size, "m", field="--element-size") if element_size else None
+    settings = FESettings(mesh=mesh, element_size=size, half=False, p_max=p_max,
+                          method=method, solver=solver)
+    folder = out if out is not None else Path("multimorph-out") / f"fem-{spec.stem}-{name}"
+    with _progress("fem module", p_max, as_json) as progress:
+        result = simulate_twisting_module(mod, settings, p_max=p_max, progress=progress)
+    comparison = compare_twisting(result) if compare else None
+    info: dict[str, Any] = {"backend": "fe", "module": result.to_dict(paths=False)}
+    if comparison is not None:
+        info["comparison"] = comparison
+    with atomic_output_dir(folder) as tmp:
+        files = ["summary.json", "path.csv"]
+        write_json(tmp / "summary.json", {"backend": "fe", "module": result.to_dict()})
+        write_twist_csv(result, tmp / "path.csv")
+        if comparison is not None:
+            write_json(tmp / "comparison.json", comparison)
+            files.append("comparison.json")
+        if vtu:
+            files += write_twist_vtu(result, tmp)
+        info["files"] = files
+    info["out"] = str(folder)
+    if as_json:
+        emit_json(info)
+        return
+    st = result.stats
+    pc, ph = result.activation()
+
+    def kpa(v: float | None) -> str:
+        return "—" if v is None else f"{v / 1e3:.3g} kPa"
+
+    console.print(f"[bold]FE twisting module[/] {name}: {mod.strips} strips of {mod.n_cells} "
+                  f"cells, tilt {math.degrees(mod.tilt):.3g}°, {st['nfree']} DOF, "
+                  f"{st['points']} points, {st['newton_iterations']} Newton iterations, "
+                  f"{st['solver']}, {st['wall_time']:.1f} s "
+                  f"({st['stop_reason'] or st['status']})", highlight=False)
+    fin = info["module"]["final"]
+    console.print(f"Pc = {kpa(pc)}, Ph = {kpa(ph)} (on the twist rate); at "
+                  f"{fin['pressure_pa'] / 1e3:.3g} kPa: twist {fin['twist_angle_deg']:+.2f}° "
+                  f"(right-handed about the axis), axial stretch {fin['axial_stretch']:.4f}, "
+                  f"V/V0 = {fin['volume_ratio']:.2f}", highlight=False)
+    if comparison is not None:
+        c = comparison
+        console.print(f"ROM vs FE (twist in the sense of the tilt): Pc {kpa(c['pc_rom'])} vs "
+                      f"{kpa(c['pc_fe'])} ({_pct(c['pc_rel'])})", highlight=False)
+        for P, a, b, la, lb in zip(c["pressure_pa"], c["twist_deg_rom"], c["twist_deg_fe"],
+                                   c["stretch_rom"], c["stretch_fe"], strict=True):
+            console.print(f"  {P / 1e3:6.3g} kPa: twist {a:7.2f}° vs {b:7.2f}°, stretch "
+                          f"{la:.4f} vs {lb:.4f}", highlight=False)
     console.print(f"files in {folder}/")
 
 

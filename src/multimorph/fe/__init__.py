@@ -1,7 +1,8 @@
 """Finite-element verification (FElupe + contique + gmsh): the only room that imports them.
 
 Structured hexahedral meshes of a cell, a module, a tilted (twisting) strip
-(:func:`cell_mesh`) or a device of modules in series (:func:`device_mesh`), a nearly
+(:func:`cell_mesh`), a device of modules in series (:func:`device_mesh`) or a twisting
+module of tilted strips around a shaft (:func:`twisting_module_mesh`), a nearly
 incompressible mixed
 u/p/J̄ model with the package's own material energies (through tensortrax), follower
 pressure on the chamber faces, pressure-controlled stepping with cutbacks and arc-length
@@ -43,6 +44,8 @@ from multimorph.fe._measure import (
 from multimorph.fe._mesh import MESH_PRESETS, CellMesh, MeshDensity, cell_mesh, resolve_density
 from multimorph.fe._problem import PressureProblem
 from multimorph.fe._solve import PathPoint, PathRun, continuation, newton, pressure_control
+from multimorph.fe._twist import FETwistResult, compare_twisting, simulate_twisting_module
+from multimorph.fe._twist_mesh import TwistMesh, twisting_module_mesh
 
 __all__ = [
     "FE_MODULE_KINDS",
@@ -53,6 +56,7 @@ __all__ = [
     "FEDeviceResult",
     "FEResult",
     "FESettings",
+    "FETwistResult",
     "LinearSolver",
     "MeshDensity",
     "MissingExtraError",
@@ -61,6 +65,7 @@ __all__ = [
     "PathRun",
     "PressureProblem",
     "ShearComparison",
+    "TwistMesh",
     "bend_and_twist",
     "build_cell_problem",
     "cell_mesh",
@@ -71,6 +76,7 @@ __all__ = [
     "compare_responses",
     "compare_shear",
     "compare_shear_responses",
+    "compare_twisting",
     "continuation",
     "device_mesh",
     "fe_device_modules",
@@ -82,5 +88,7 @@ __all__ = [
     "resolve_density",
     "simulate_cell",
     "simulate_device",
+    "simulate_twisting_module",
     "strip_strain",
+    "twisting_module_mesh",
 ]

@@ -16,8 +16,9 @@ Measured at every converged point from node coordinates:
 * the chambers' volume and the peak principal stretch.
 
 The module's :class:`~multimorph.response.Response` is read on the twist rate *in the sense
-of the tilt*, sign(β) · τ (positive for the twist that the tilt drives), so that a module and
-its mirror image have the same Pc and Ph.
+of the tilt*, −sign(β) · τ (positive for the twist that the tilt drives: a tilt β > 0 twists
+the module left-handed about +y), so that a module and its mirror image have the same Pc
+and Ph.
 
 Scaling: lengths in units of the cell length, stresses in units of the wall shear modulus.
 """
@@ -44,7 +45,15 @@ from multimorph.fe._solve import PathPoint
 from multimorph.fe._twist_mesh import TwistMesh, twisting_module_mesh
 from multimorph.response import EquilibriumPath, Response, build_response
 
-__all__ = ["FETwistResult", "compare_twisting", "simulate_twisting_module"]
+__all__ = ["FETwistResult", "compare_twisting", "simulate_twisting_module", "write_twist_csv",
+           "write_twist_vtu"]
+
+
+def _sense(beta: float) -> float:
+    """sign(β) (1 for β = 0): a tilt β > 0 twists the module left-handed about +y (the
+    strips' cells lengthen along (−sin β, cos β) in the strip frame, a negative shear of the
+    shaft's surface)."""
+    return -1.0 if beta < 0 else 1.0
 
 
 class _TwistRecorder:
@@ -52,10 +61,11 @@ class _TwistRecorder:
 
     def __init__(self, mesh: TwistMesh, problem: PressureProblem, L: float, mu: float,
                  p_max: float, s: FESettings, max_stretch: float | None,
-                 progress: Callable[[float, int], None] | None) -> None:
+                 progress: Callable[[float, int], None] | None, tilt: float) -> None:
         self.mesh, self.problem, self.L, self.mu = mesh, problem, L, mu
         self.p_max, self.s, self.max_stretch, self.progress = p_max, s, max_stretch, progress
         self.V0 = chamber_volume(mesh.points, mesh.chamber_faces)
+        self.tilt = tilt
         end = mesh.end_section
         self.weights = mesh.section_weights(end) / np.sum(mesh.section_weights(end))
         self.rows: list[dict[str, Any]] = []
@@ -116,7 +126,7 @@ class _TwistRecorder:
         r = self.rows
         mod = self.mesh.module
         angle = np.array([row["twist_angle"] for row in r])
-        sense = math.copysign(1.0, mod.tilt) if mod.tilt != 0 else 1.0
+        sense = -_sense(self.tilt)
         vol = np.array([row["volume"] for row in r])
         return EquilibriumPath(
             pressure=np.array([row["pressure"] for row in r]),
@@ -141,7 +151,7 @@ class FETwistResult:
     mesh : TwistMesh
     response : Response
         ``backend="fe"``, read on ``signal="twist_rate"``: ``path.twist_rate`` is the twist
-        rate in the sense of the tilt, sign(β) · angle / L (rad/m); ``path.extra`` holds
+        rate in the sense of the tilt, −sign(β) · angle / L (rad/m); ``path.extra`` holds
         ``twist_angle`` (signed, right-handed about +y, rad), ``bend_angle`` (rad, zero by
         symmetry up to the solver's accuracy) and ``volume_ratio``.
     pressure : ndarray (n,)
@@ -258,7 +268,8 @@ def simulate_twisting_module(module: Module, settings: FESettings | None = None,
     solver = make_solver(s.solver)
     p_end = float(p_max if p_max is not None else (s.p_max if s.p_max is not None else mu))
     max_stretch = s.max_stretch if s.max_stretch is not None else g.material.break_stretch
-    rec = _TwistRecorder(mesh, problem, L, mu, p_end, s, max_stretch, progress)
+    beta = float(module.tilt if tilt is None else tilt)
+    rec = _TwistRecorder(mesh, problem, L, mu, p_end, s, max_stretch, progress, beta)
     try:
         run = trace_path(problem, solver, s, p_end / mu, rec.add)
     finally:
@@ -275,7 +286,7 @@ def simulate_twisting_module(module: Module, settings: FESettings | None = None,
         "tangents_reused": run.tangents_reused, "chord_steps": run.chord_steps,
         "assembly_time": problem.stats.time, "mesh_time": t_mesh,
         "wall_time": time.perf_counter() - t0, "p_max": p_end, "length_unit_m": L,
-        "stress_unit_pa": mu, "tilt": float(module.tilt if tilt is None else tilt),
+        "stress_unit_pa": mu, "tilt": beta,
         "settings": {k: (v if not isinstance(v, MeshDensity) else asdict(v))
                      for k, v in asdict(s).items()},
     }
@@ -302,9 +313,10 @@ def compare_twisting(result: FETwistResult, module: Module | None = None, *,
     The reduced model's module strains come from :func:`multimorph.device._modules.
     module_strains` on its cell response (as :func:`~multimorph.fe.compare_device` does): the
     strip's mid-height strain ε gives τ = ε sin 2β / R and the axial stretch 1 + ε cos²β.
-    Both angles are in the sense of the tilt (sign(β) times the signed angle): the reduced
-    model's formula has no handedness of its own. Its Pc and Ph are those of its cell
-    response (read on the cell's curvature), FE's on the module's twist rate.
+    Both angles are in the sense of the tilt (FE: −sign(β) times the signed angle about +y;
+    the reduced model: sign(β) τ L, its formula has no handedness of its own). Its Pc and
+    Ph are those of its cell response (read on the cell's curvature), FE's on the module's
+    twist rate.
 
     Parameters
     ----------
@@ -324,7 +336,8 @@ def compare_twisting(result: FETwistResult, module: Module | None = None, *,
     -------
     dict
         ``pressure_pa``, ``twist_deg_fe``, ``twist_deg_rom``, ``twist_rel``,
-        ``stretch_fe``, ``stretch_rom``, ``stretch_rel`` (lists), ``pc_fe``, ``pc_rom``,
+        ``stretch_fe``, ``stretch_rom``, ``stretch_rel`` (lists; ``stretch_rel`` compares
+        the elongations λ − 1), ``pc_fe``, ``pc_rom``,
         ``pc_rel``, ``ph_fe``, ``ph_rom``, ``ph_rel`` (Pa, relative or None), ``rom_p_max``.
     """
     from multimorph.device._modules import module_strains
@@ -337,7 +350,7 @@ def compare_twisting(result: FETwistResult, module: Module | None = None, *,
 
         rom = solve_cell(mod.cell, p_rom)
     ms = module_strains(mod, rom)
-    sense = math.copysign(1.0, mod.tilt)
+    sense = _sense(mod.tilt)
     lo = result.response.loading
     top = float(np.max(lo.pressure))
     P = np.linspace(top / points, top, points)
@@ -362,3 +375,32 @@ def compare_twisting(result: FETwistResult, module: Module | None = None, *,
             "pc_fe": pc_f, "pc_rom": pc_r, "pc_rel": _rel(pc_r, pc_f),
             "ph_fe": ph_f, "ph_rom": ph_r, "ph_rel": _rel(ph_r, ph_f),
             "signal_fe": "twist_rate", "signal_rom": cr.signal}
+
+
+def write_twist_vtu(result: FETwistResult, folder: Any, stem: str = "module") -> list[str]:
+    """The module's VTU series (:func:`~multimorph.fe._output.write_hex_series`), tagged by
+    region (0 wall, 1 bottom layer, 2 shaft), strip (−1: the shaft) and material."""
+    from multimorph.fe._output import write_hex_series
+
+    m = result.mesh
+    return write_hex_series(folder, stem, m.points, m.cells, result.displacements,
+                            result.stretch, result.pressure,
+                            {"region": m.region, "strip": m.strip, "material": m.material})
+
+
+def write_twist_csv(result: FETwistResult, path: Any) -> None:
+    """The path as CSV: pressure, signed twist angle and rate, axial stretch, chamber volume,
+    volume ratio, peak stretch, stability, arc-length step (SI, angles in degrees)."""
+    import csv
+
+    p = result.response.path
+    cols = {"pressure_pa": p.pressure, "twist_angle_deg": np.degrees(result.twist_angle),
+            "twist_rate_rad_per_m": result.twist_angle / result.module.length,
+            "axial_stretch": p.axial_stretch, "chamber_volume_m3": p.volume,
+            "volume_ratio": p.extra["volume_ratio"], "peak_stretch": p.peak_stretch}
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow([*cols, "stable", "arc_length_step"])
+        for i in range(len(p)):
+            w.writerow([*(f"{c[i]:.8g}" for c in cols.values()), int(p.stable[i]),
+                        int(p.extra["arc_length"][i])])

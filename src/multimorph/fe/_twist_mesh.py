@@ -175,9 +175,10 @@ def _tilt_shift(pts2: np.ndarray, n: int, r: float, a: float, w: float, tan_b: f
         s = np.where(lam > 0, np.einsum("pi,pi->p", pts2, tangents[k]) / np.where(
             lam > 0, lam, 1.0), 0.0)
     h = 0.5 * w
-    span = max(a - h, 1e-300)
-    f = np.where(np.abs(s) <= h, s, np.sign(s) * h * (a - np.abs(s)) / span) * tan_b
-    return lam * f
+    if a - h <= 1e-9 * a:  # strips flush with the faces: no gaps
+        return lam * np.clip(s, -h, h) * tan_b
+    back = np.sign(s) * h * (a - np.minimum(np.abs(s), a)) / (a - h)
+    return lam * np.where(np.abs(s) <= h, s, back) * tan_b
 
 
 def _shaft_section(n: int, r: float, t_face: np.ndarray, n_ring: int,
