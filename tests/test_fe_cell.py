@@ -131,3 +131,33 @@ def test_chord_steps_trace_the_same_equilibria_with_fewer_factorisations() -> No
         problem.sync(x)
         r, g_unit = problem.residual(x, P / mu)
         assert np.linalg.norm(r) <= 1e-6 * (P / mu) * np.linalg.norm(g_unit)
+
+
+def test_repeated_contique_evaluations_are_handed_out_again_unchanged(monkeypatch) -> None:
+    """contique re-evaluates the converged point and its first iterate at every step (its
+    pre-identification's result is discarded); handing the kept residuals, states and
+    solves out again must give the bit-identical path with fewer residual evaluations."""
+    from multimorph.fe import PressureProblem
+    from multimorph.fe._solve import _Bordered
+
+    calls = {"n": 0}
+    residual = PressureProblem.residual
+
+    def counted(self, x, p):
+        calls["n"] += 1
+        return residual(self, x, p)
+
+    monkeypatch.setattr(PressureProblem, "residual", counted)
+    g = _cell("gent", jm=30.0)
+    s = FESettings(element_size=2e-3, p_max=0.45 * MU, method="arc-length")
+    out = {}
+    for memo in (False, True):
+        monkeypatch.setattr(_Bordered, "memo", memo)
+        calls["n"] = 0
+        out[memo] = (simulate_cell(g, s), calls["n"])
+    (plain, n_plain), (memo, n_memo) = out[False], out[True]
+    np.testing.assert_array_equal(memo.response.path.pressure, plain.response.path.pressure)
+    np.testing.assert_allclose(memo.displacements, plain.displacements, rtol=0, atol=1e-14)
+    assert memo.stats["factorisations"] == plain.stats["factorisations"]
+    # two residuals per contique step saved (the converged point and its first iterate)
+    assert n_memo <= n_plain - 2 * (len(plain.response.path.pressure) - 2)

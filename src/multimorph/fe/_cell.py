@@ -257,8 +257,11 @@ def trace_path(problem: PressureProblem, solver: LinearSolver, settings: FESetti
     """Trace a pressure path to ``p_end`` (units of the problem) as ``settings.method`` says.
 
     ``"auto"``: pressure steps (Δp from p_end/20, down to p_end/400, up to p_end/8), handing
-    over to arc-length continuation after three cutbacks in a row (a limit point or a steep
-    ballooning branch); ``"pressure"``: steps only; ``"arc-length"``: continuation from 0.
+    over to arc-length continuation at the first failed step (a limit point, a steep
+    ballooning branch, or a trial state past the elastomer's lock-up: continuation bounds
+    every increment, where halving pressure steps cost up to a second each and, on the
+    medium reference mesh, a third more points); ``"pressure"``: steps only;
+    ``"arc-length"``: continuation from 0.
     ``on_point`` sees every converged point and may stop the path (returns True).
     """
     s = settings
@@ -266,7 +269,7 @@ def trace_path(problem: PressureProblem, solver: LinearSolver, settings: FESetti
     if s.method in ("auto", "pressure"):
         run = pressure_control(problem, p_end, solver, dp0=p_end / 20, dp_min=p_end / 400,
                                dp_max=p_end / 8, tol=s.tol, max_steps=s.max_steps,
-                               maxiter=8, max_cutbacks=3 if s.method == "auto" else None,
+                               maxiter=8, max_cutbacks=1 if s.method == "auto" else None,
                                on_point=on_point)
     if s.method == "arc-length" or (s.method == "auto" and run.status == "stalled"):
         p_start = run.points[-1].pressure if run.points else 0.0

@@ -125,6 +125,22 @@ class _MeanDilatationBody:
         st.J[:] = st.volume() / self.solid.V
         st.p[:] = self.solid.bulk * (st.J - 1.0)
 
+    def snapshot(self) -> tuple[Any, ...]:
+        """Copies of the dual fields, the displacement they were updated from and F."""
+        res = self.solid.results
+        st = res.state
+        return st.u.copy(), st.J.copy(), st.p.copy(), [k.copy() for k in res.kinematics]
+
+    def restore(self, snap: tuple[Any, ...]) -> None:
+        res = self.solid.results
+        st = res.state
+        u, J, p, kin = snap
+        st.u[:] = u
+        st.J[:] = J
+        st.p[:] = p
+        for a, b in zip(res.kinematics, kin, strict=True):
+            a[...] = b
+
     def vector(self) -> Any:
         """Internal force; advances the dual fields by FElupe's linearised update."""
         return self.solid.assemble.vector(field=self.field)
@@ -232,6 +248,22 @@ class PressureProblem:
         for b in self._bodies:
             b.sync()
         self._last_x = None
+
+    def snapshot(self) -> tuple[Any, ...]:
+        """Everything a residual evaluation leaves behind for the next residual (the dual
+        fields' linearised update) and for the tangent (the kinematics): restoring it
+        afterwards is the same as evaluating that residual again."""
+        return (self.values.copy(), [b.snapshot() for b in self._bodies],
+                self._pressure.results.kinematics,
+                None if self._last_x is None else self._last_x.copy())
+
+    def restore(self, snap: tuple[Any, ...]) -> None:
+        values, bodies, pressure_kinematics, last_x = snap
+        self.values[...] = values
+        for b, sb in zip(self._bodies, bodies, strict=True):
+            b.restore(sb)
+        self._pressure.results.kinematics = pressure_kinematics  # fresh arrays per extract
+        self._last_x = None if last_x is None else last_x.copy()
 
     def residual(self, x: np.ndarray, p: float) -> tuple[np.ndarray, np.ndarray]:
         """Residual ``r = f_int − p g`` and the unit load ``g`` on the active DOF at ``x``.
