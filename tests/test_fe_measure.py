@@ -67,3 +67,23 @@ def test_bend_and_twist_of_a_rigid_rotation() -> None:
     bend, twist = bend_and_twist(X, X @ R.T + 0.3)
     assert bend == pytest.approx(th, abs=1e-12)
     assert abs(twist) == pytest.approx(ps, abs=1e-12)
+
+
+def test_largest_stretch_matches_an_eigen_solver_including_repeated_eigenvalues() -> None:
+    """The closed-form largest principal stretch equals sqrt(max eig(FᵀF)) for random F, the
+    identity, uniaxial stretch (two equal smallest eigenvalues) and equibiaxial stretch
+    (two equal largest: the numerically worst case of the trigonometric formula)."""
+    from multimorph.fe._measure import largest_stretch
+
+    rng = np.random.default_rng(3)
+    F = np.eye(3)[:, :, None, None] + 0.4 * rng.standard_normal((3, 3, 4, 500))
+    F[:, :, 0, 0] = np.eye(3)
+    F[:, :, 0, 1] = np.diag([2.0, 2.0 ** -0.5, 2.0 ** -0.5])
+    F[:, :, 0, 2] = np.diag([1.5, 1.5, 1.5 ** -2])
+    R = np.linalg.qr(rng.standard_normal((3, 3)))[0]
+    F[:, :, 0, 3] = R @ np.diag([1.3, 1.3, 0.7]) @ R.T
+    lam = largest_stretch(F)
+    C = np.einsum("kiqc,kjqc->qcij", F, F)
+    ref = np.sqrt(np.linalg.eigvalsh(C)[..., -1])
+    np.testing.assert_allclose(lam, ref, rtol=1e-8)
+    assert lam[0, :4] == pytest.approx([1.0, 2.0, 1.5, 1.3], rel=1e-8)

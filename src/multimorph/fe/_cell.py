@@ -22,6 +22,7 @@ from multimorph.fe._measure import (
     bend_and_twist,
     chamber_volume,
     circle_fit_curvature,
+    largest_stretch,
     line_stretch,
     strip_strain,
 )
@@ -180,8 +181,7 @@ class _Recorder:
             twist += turn * round((self.rows[-1]["twist_angle"] - twist) / turn)
         vol = chamber_volume(x, m.chamber_faces, mirror_x=g.width / 2 if m.half else None)
         F = self.problem.deformation_gradient()
-        C = np.einsum("kiqc,kjqc->qcij", F, F)
-        ev = np.sqrt(np.linalg.eigvalsh(C)[..., -1])  # (q, cells), as peak_stretch does
+        ev = largest_stretch(F)  # (q, cells)
         cell = int(np.unravel_index(np.argmax(ev), ev.shape)[1])
         lam = float(ev.max())
         cs = ev.mean(axis=0)

@@ -39,7 +39,7 @@ from multimorph.fe._device_mesh import (
     fe_device_modules,
 )
 from multimorph.fe._linsolve import make_solver
-from multimorph.fe._measure import _kabsch, bend_and_twist, chamber_volume
+from multimorph.fe._measure import _kabsch, bend_and_twist, chamber_volume, largest_stretch
 from multimorph.fe._mesh import MeshDensity
 from multimorph.fe._problem import PressureProblem
 from multimorph.fe._solve import PathPoint
@@ -116,8 +116,7 @@ class _DeviceRecorder:
             vol[i] = chamber_volume(x, m.chamber_faces[m.face_module == i],
                                     mirror_x=self.mirror_x)
         F = self.problem.deformation_gradient()
-        C = np.einsum("kiqc,kjqc->qcij", F, F)
-        ev = np.sqrt(np.linalg.eigvalsh(C)[..., -1])  # (q, cells)
+        ev = largest_stretch(F)  # (q, cells)
         cell_peak = ev.max(axis=0)
         for i in range(k):
             peak[i] = float(cell_peak[m.module == i].max())
