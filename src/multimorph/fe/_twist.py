@@ -67,7 +67,8 @@ class _TwistRecorder:
         self.V0 = chamber_volume(mesh.points, mesh.chamber_faces)
         self.tilt = tilt
         end = mesh.end_section
-        self.weights = mesh.section_weights(end) / np.sum(mesh.section_weights(end))
+        w = mesh.section_weights(end)
+        self.weights = w / np.sum(w)
         self.rows: list[dict[str, Any]] = []
         self.u: list[np.ndarray] = []
         self.cell_stretch: list[np.ndarray] = []

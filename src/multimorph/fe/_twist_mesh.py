@@ -215,6 +215,13 @@ def _shaft_section(n: int, r: float, t_face: np.ndarray, n_ring: int,
     return np.concatenate(pts), np.concatenate(quads)
 
 
+def _distinct(v: np.ndarray, tol: float) -> np.ndarray:
+    """Sorted values of ``v`` with those closer than ``tol`` to the previous one dropped
+    (the grid lines of a mesh whose coordinates carry rounding from the shear)."""
+    v = np.sort(v)
+    return v[np.concatenate([[True], np.diff(v) > tol])]
+
+
 def _merge(points: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
     """Representative index of every point after merging points closer than ``tol``:
     returns (unique points, map old → new)."""
@@ -298,8 +305,7 @@ def twisting_module_mesh(module: Module, mesh: str | MeshDensity = "coarse", *,
     sm = cell_mesh(g, dens, n_cells=module.n_cells, half=False, tilt=beta)
     tan_b = math.tan(beta)
     loc = sm.unsheared()
-    xs = np.unique(np.round(loc[:, 0] / tol)) * tol
-    ys = np.unique(np.round(loc[:, 1] / tol)) * tol
+    xs, ys = _distinct(loc[:, 0], tol), _distinct(loc[:, 1], tol)
 
     # strips: local (x, y, z) -> (x − w/2) e_θ + (r + z) e_r, y
     pts, cells, region, strip, chamber, chambers = [], [], [], [], [], []
