@@ -239,8 +239,8 @@ strips = 3
 
 def test_cli_fem_module(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """``multimorph fem DEVICE.toml --module tw --json``: exit 0, the summary's keys and the
-    files; a module name that is not in the spec and a --module on a cell spec: exit 2,
-    the message names the option, nothing written."""
+    files; a module name that is not in the spec, or a bending module with a bending plane
+    FE cannot mesh: exit 2, the message names the option or field, nothing written."""
     from typer.testing import CliRunner
 
     from multimorph.cli._app import _register, app
@@ -264,6 +264,14 @@ def test_cli_fem_module(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None
     bad = CliRunner().invoke(app, ["fem", str(spec), "--module", "nope", "--out",
                                    str(tmp_path / "bad"), "--json"])
     assert bad.exit_code == 2 and "--module" in bad.output and "nope" in bad.output
+    assert not (tmp_path / "bad").exists()
+    # a bending module goes the device route, which refuses a 90° bending plane by name
+    bend = tmp_path / "bend.toml"
+    bend.write_text(_SPEC.replace('kind = "twisting"', 'kind = "bending"').replace(
+        'tilt = "30 deg"', 'orientation = "90 deg"'))
+    bad = CliRunner().invoke(app, ["fem", str(bend), "--module", "tw", "--out",
+                                   str(tmp_path / "bad"), "--json"])
+    assert bad.exit_code == 2 and "'tw'.orientation" in bad.output
     assert not (tmp_path / "bad").exists()
 
 
