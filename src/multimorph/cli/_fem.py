@@ -371,7 +371,8 @@ def _fem_module(spec: Path, table: dict[str, Any], name: str, *, mesh: str,
         return "—" if v is None else f"{v / 1e3:.3g} kPa"
 
     console.print(f"[bold]FE twisting module[/] {name}: {mod.strips} strips of {mod.n_cells} "
-                  f"cells, tilt {math.degrees(mod.tilt):.3g}°, {st['nfree']} DOF, "
+                  f"cell{'s' if mod.n_cells > 1 else ''}, tilt {math.degrees(mod.tilt):.3g}°, "
+                  f"{st['nfree']} DOF, "
                   f"{st['points']} points, {st['newton_iterations']} Newton iterations, "
                   f"{st['solver']}, {st['wall_time']:.1f} s "
                   f"({st['stop_reason'] or st['status']})", highlight=False)
