@@ -161,3 +161,14 @@ def test_repeated_contique_evaluations_are_handed_out_again_unchanged(monkeypatc
     assert memo.stats["factorisations"] == plain.stats["factorisations"]
     # two residuals per contique step saved (the converged point and its first iterate)
     assert n_memo <= n_plain - 2 * (len(plain.response.path.pressure) - 2)
+
+
+def test_progress_callbacks_print_during_continuation(capsys) -> None:
+    """contique's own step table is silenced, the caller's progress output is not."""
+    g = _cell("gent", jm=30.0)
+    simulate_cell(g, FESettings(element_size=2.5e-3, p_max=0.2 * MU, method="arc-length"),
+                  progress=lambda p, n: print(f"point {n} at {p:.0f} Pa"))
+    out = capsys.readouterr().out
+    lines = [ln for ln in out.splitlines() if ln.startswith("point ")]
+    assert len(lines) >= 3
+    assert "Step" not in out and "|" not in out  # nothing of contique's table

@@ -67,7 +67,7 @@ class _ActiveSum:
         self._pos = np.full(n_all, -1, dtype=np.int64)
         self._pos[active] = np.arange(self.n)
         self._patterns: list[tuple[np.ndarray, np.ndarray]] = []
-        self._maps: list[np.ndarray] = []
+        self._map = np.zeros(0, dtype=np.int64)
         self._indptr = self._indices = np.zeros(0, dtype=np.int32)
         self.nnz = 0
 
@@ -86,7 +86,8 @@ class _ActiveSum:
         union = np.unique(np.concatenate([k[k >= 0] for k in keys]))
         self.nnz = len(union)
         # entries on a fixed DOF go to one extra slot, dropped after the sum
-        self._maps = [np.where(k >= 0, np.searchsorted(union, k), self.nnz) for k in keys]
+        self._map = np.concatenate([np.where(k >= 0, np.searchsorted(union, k), self.nnz)
+                                    for k in keys])
         self._patterns = [(m.indptr.copy(), m.indices.copy()) for m in mats]
         counts = np.bincount(union // n, minlength=n)
         self._indptr = np.concatenate([[0], np.cumsum(counts)]).astype(np.int32)
@@ -96,9 +97,9 @@ class _ActiveSum:
                  ) -> sp.csr_matrix:
         if not self._matches(mats):
             self._build(mats)
-        data = np.zeros(self.nnz + 1)
-        for m, w, idx in zip(mats, weights, self._maps, strict=True):
-            data += w * np.bincount(idx, weights=m.data, minlength=self.nnz + 1)
+        values = np.concatenate([m.data if w == 1.0 else w * m.data
+                                 for m, w in zip(mats, weights, strict=True)])
+        data = np.bincount(self._map, weights=values, minlength=self.nnz + 1)
         K = sp.csr_matrix((data[:-1], self._indices.copy(), self._indptr.copy()),
                           shape=(self.n, self.n))
         K.has_canonical_format = True

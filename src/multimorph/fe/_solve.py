@@ -11,7 +11,7 @@ import contextlib
 import io
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -240,6 +240,10 @@ class _Bordered:
         self.memo_hits = 0
 
     def fun(self, x: np.ndarray, lpf: float, *_: Any) -> np.ndarray:
+        if not (math.isfinite(lpf) and np.all(np.isfinite(x))):
+            # a failed solve (contique turns it into NaN and iterates on): nothing to evaluate
+            self._from_converged = False
+            return self._record(x, np.full_like(x, np.nan), np.full_like(x, np.nan))
         first = False                    # the first iterate away from the converged point
         if np.array_equal(x, self.converged_x):
             # every contique cycle starts from the last converged point: restore its state
@@ -292,8 +296,11 @@ class _Bordered:
         user of contique's bordered matrix. contique is handed an empty matrix of the same
         shape instead, so its sparse stacking into the (n+1) system and our slicing it
         apart again (≈ 12 ms per iteration at 10k DOF) handle only the border."""
-        self._K_solve = self._tangent(x, lpf)
-        n = self._K_solve.shape[0]
+        n = len(x)
+        failed = bool(self._norms) and not math.isfinite(self._norms[-1])
+        # a non-finite residual (a trial state past lock-up, or a failed solve before it)
+        # gets no tangent: the bordered solve refuses, and contique's cycle fails at once
+        self._K_solve = None if failed else self._tangent(x, lpf)
         if self._proxy is None or self._proxy.shape[0] != n:
             self._proxy = sp.csr_matrix((n, n))
         return self._proxy
@@ -337,7 +344,9 @@ class _Bordered:
         n = A.shape[0] - 1
         K = self._K_solve
         head = A.indices[:A.indptr[n]]
-        if K is None or K.shape[0] != n or not np.all(head == n):
+        if K is None:
+            raise NonFiniteSystemError("no tangent at a non-finite residual")
+        if K.shape[0] != n or not np.all(head == n):
             raise RuntimeError("bordered solve: contique's matrix is not the one dfdx handed out")
         c = np.asarray(A[:n, n].toarray()).ravel()
         row = np.asarray(A[n, :].toarray()).ravel()
@@ -356,6 +365,18 @@ class _Bordered:
             raise NonFiniteSystemError("singular bordered system")
         y = (b[n] - e @ a) / den
         return np.append(a - z * y, y)
+
+
+def _silenced(gen: Iterator[Any], sink: io.StringIO | None) -> Iterator[Any]:
+    """The items of ``gen`` with its own printing (contique's step table) sent to ``sink``;
+    the caller's code between items (progress callbacks) still prints normally."""
+    while True:
+        with contextlib.redirect_stdout(sink) if sink is not None else contextlib.nullcontext():
+            try:
+                item = next(gen)
+            except StopIteration:
+                return
+        yield item
 
 
 def continuation(problem: PressureProblem, p_start: float, solver: LinearSolver, *,
@@ -407,33 +428,32 @@ def continuation(problem: PressureProblem, p_start: float, solver: LinearSolver,
                          overshoot=overshoot)
     first = True
     x_last = x0
-    with contextlib.redirect_stdout(sink) if quiet else contextlib.nullcontext():
-        try:
-            for res in gen:
-                if first:
-                    first = False
-                    continue
-                run.attempts += 1
-                run.newton_iterations += int(res.niterations)
-                if not res.success:
-                    continue
-                x, p = res.x[:-1].copy(), float(res.x[-1])
-                cb.converged_x = res.x[:-1].copy()
-                stable = _inertia_stable(solver)
-                if stable is None:
-                    stable = p >= last_p
-                last_p = p
-                x_last = x
-                pt = PathPoint(p, x, int(res.niterations), stable, "arc-length")
-                run.points.append(pt)
-                if on_point is not None and on_point(pt):
-                    run.status = "stopped"
-                    break
-            else:
-                run.status = "max_steps" if len(run.points) else "stalled"
-        except NonFiniteSystemError as exc:
-            run.status = "stalled"
-            run.message = f"continuation failed: {exc}"
+    try:
+        for res in _silenced(gen, sink if quiet else None):
+            if first:
+                first = False
+                continue
+            run.attempts += 1
+            run.newton_iterations += int(res.niterations)
+            if not res.success:
+                continue
+            x, p = res.x[:-1].copy(), float(res.x[-1])
+            cb.converged_x = res.x[:-1].copy()
+            stable = _inertia_stable(solver)
+            if stable is None:
+                stable = p >= last_p
+            last_p = p
+            x_last = x
+            pt = PathPoint(p, x, int(res.niterations), stable, "arc-length")
+            run.points.append(pt)
+            if on_point is not None and on_point(pt):
+                run.status = "stopped"
+                break
+        else:
+            run.status = "max_steps" if len(run.points) else "stalled"
+    except NonFiniteSystemError as exc:
+        run.status = "stalled"
+        run.message = f"continuation failed: {exc}"
     if run.status == "running":
         run.status = "stalled"
     run.tangents_reused += cb.tangents_reused
