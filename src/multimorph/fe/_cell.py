@@ -141,6 +141,20 @@ _STRIP_KEYS = ("shear", "shear_slope", "strip_axial_strain", "strip_lateral_stra
                "strip_rotation")
 
 
+def path_end(pressures: list[float], method: str, p_max: float, after_limit: bool) -> str:
+    """Why a path ends at its last recorded point ("" to go on): with ``after_limit``, once
+    the pressure fell 0.5 % below its maximum with three points past it; on a continuation
+    point at or above ``p_max`` (Pa) with the pressure still rising."""
+    if after_limit:
+        top = int(np.argmax(pressures))
+        if pressures[-1] < 0.995 * pressures[top] and len(pressures) - top >= 3:
+            return "passed the limit point"
+    if (method == "arc-length" and pressures[-1] >= p_max and len(pressures) > 2
+            and pressures[-1] >= pressures[-2]):
+        return "reached p_max"
+    return ""
+
+
 class _Recorder:
     """Measures every converged point and decides when to stop."""
 
@@ -214,17 +228,9 @@ class _Recorder:
         if self.max_stretch is not None and lam > self.max_stretch:
             self.stop_reason = f"peak stretch exceeded {self.max_stretch:g}"
             return True
-        if self.stop_after_limit:
-            pres = [row["pressure"] for row in self.rows]
-            top = int(np.argmax(pres))
-            if pres[-1] < 0.995 * pres[top] and len(pres) - top >= 3:
-                self.stop_reason = "passed the limit point"
-                return True
-        if pt.method == "arc-length" and pt.pressure * self.mu >= self.p_max and len(self.rows) > 2:
-            if self.rows[-1]["pressure"] >= self.rows[-2]["pressure"]:
-                self.stop_reason = "reached p_max"
-                return True
-        return False
+        self.stop_reason = path_end([row["pressure"] for row in self.rows], pt.method,
+                                    self.p_max, self.stop_after_limit)
+        return bool(self.stop_reason)
 
     def path(self) -> EquilibriumPath:
         r = self.rows

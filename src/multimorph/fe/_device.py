@@ -29,7 +29,7 @@ import numpy as np
 
 from multimorph.device import Device
 from multimorph.errors import MultimorphError
-from multimorph.fe._cell import FESettings, trace_path
+from multimorph.fe._cell import FESettings, path_end, trace_path
 from multimorph.fe._deps import require
 from multimorph.fe._device_mesh import (
     FE_MODULE_KINDS,
@@ -150,17 +150,9 @@ class _DeviceRecorder:
         if self.max_stretch is not None and r["peak"].max() > self.max_stretch:
             self.stop_reason = f"peak stretch exceeded {self.max_stretch:g}"
             return True
-        pres = [row["pressure"] for row in self.rows]
-        if self.s.stop_after_limit:
-            top = int(np.argmax(pres))
-            if pres[-1] < 0.995 * pres[top] and len(pres) - top >= 3:
-                self.stop_reason = "passed the limit point"
-                return True
-        if (pt.method == "arc-length" and pres[-1] >= self.p_max and len(pres) > 2
-                and pres[-1] >= pres[-2]):
-            self.stop_reason = "reached p_max"
-            return True
-        return False
+        self.stop_reason = path_end([row["pressure"] for row in self.rows], pt.method,
+                                    self.p_max, self.s.stop_after_limit)
+        return bool(self.stop_reason)
 
     def module_path(self, i: int) -> EquilibriumPath:
         """Module ``i``'s path: curvature = bend angle in the module's frame / its length."""

@@ -35,10 +35,10 @@ import numpy as np
 
 from multimorph.device import Module
 from multimorph.errors import MultimorphError
-from multimorph.fe._cell import FESettings, trace_path
+from multimorph.fe._cell import FESettings, path_end, trace_path
 from multimorph.fe._deps import require
 from multimorph.fe._linsolve import make_solver
-from multimorph.fe._measure import bend_and_twist, chamber_volume
+from multimorph.fe._measure import bend_and_twist, chamber_volume, largest_stretch
 from multimorph.fe._mesh import MeshDensity
 from multimorph.fe._problem import PressureProblem
 from multimorph.fe._solve import PathPoint
@@ -88,8 +88,7 @@ class _TwistRecorder:
         uy = float(self.weights @ u[end, 1])
         vol = chamber_volume(x, m.chamber_faces)
         F = self.problem.deformation_gradient()
-        C = np.einsum("kiqc,kjqc->qcij", F, F)
-        ev = np.sqrt(np.linalg.eigvalsh(C)[..., -1])  # (q, cells)
+        ev = largest_stretch(F)  # (q, cells)
         self.rows.append({
             "pressure": pt.pressure * self.mu, "twist_angle": twist, "bend_angle": bend,
             "axial_stretch": 1.0 + uy / m.length, "volume": vol,
@@ -111,17 +110,9 @@ class _TwistRecorder:
         if self.max_stretch is not None and r["peak"] > self.max_stretch:
             self.stop_reason = f"peak stretch exceeded {self.max_stretch:g}"
             return True
-        pres = [row["pressure"] for row in self.rows]
-        if self.s.stop_after_limit:
-            top = int(np.argmax(pres))
-            if pres[-1] < 0.995 * pres[top] and len(pres) - top >= 3:
-                self.stop_reason = "passed the limit point"
-                return True
-        if (pt.method == "arc-length" and pres[-1] >= self.p_max and len(pres) > 2
-                and pres[-1] >= pres[-2]):
-            self.stop_reason = "reached p_max"
-            return True
-        return False
+        self.stop_reason = path_end([row["pressure"] for row in self.rows], pt.method,
+                                    self.p_max, self.s.stop_after_limit)
+        return bool(self.stop_reason)
 
     def path(self) -> EquilibriumPath:
         r = self.rows
