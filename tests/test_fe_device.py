@@ -255,3 +255,39 @@ def test_example_devices_mesh(file: str) -> None:
             mod.n_cells * mod.cell.wc * mod.cell.hc * mod.cell.dc, rel=1e-12)
     if file == "fe_device.toml":  # the size docs/fe.md quotes (8 480 free DOF)
         assert m.ndof - 3 * m.clamped.sum() - (m.mirror & ~m.clamped).sum() == 8480
+
+
+def test_cli_fem_device_writes_its_files(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                        ) -> None:
+    """``multimorph fem examples/fe_device.toml --json`` on the tiny test mesh: exit 0, the
+    per-module summary, and every file it lists (CSV, PNG curves and snapshots, the VTU
+    series). In curves.csv's last rows the stalk bends towards its stiff layer and the
+    symmetric seal stretches, bending far less (only through its partition with the stalk)."""
+    import csv
+    import json
+
+    from typer.testing import CliRunner
+
+    from multimorph.cli._app import _register, app
+    from multimorph.fe import MESH_PRESETS
+
+    _register()
+    monkeypatch.setitem(MESH_PRESETS, "coarse", DENS)
+    spec = Path(__file__).resolve().parents[1] / "examples" / "fe_device.toml"
+    out = tmp_path / "out"
+    res = CliRunner().invoke(app, ["fem", str(spec), "--mesh", "coarse", "--pmax", "10 kPa",
+                                   "--method", "pressure", "--out", str(out), "--json"])
+    assert res.exit_code == 0, res.output
+    info = json.loads(res.output)
+    for f in ("summary.json", "curves.csv", "tip.csv", "curves.png", "snapshots.png",
+              "device.pvd", "device_0000.vtu"):
+        assert f in info["files"] and (out / f).exists(), f
+    for f in ("curves.png", "snapshots.png"):
+        assert (out / f).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    with open(out / "curves.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    last = {r["module"]: r for r in rows if float(r["pressure_pa"]) == 10e3}
+    assert set(last) == {"seal", "stalk"}
+    stalk = float(last["stalk"]["bend_angle_deg"])
+    assert stalk > 1.0 and abs(float(last["seal"]["bend_angle_deg"])) < 0.2 * stalk
+    assert float(last["seal"]["axial_stretch"]) > 1.0

@@ -259,8 +259,10 @@ def test_cli_fem_module(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None
     for k in ("critical_pressure", "hardening_pressure", "final", "stats", "tilt_deg"):
         assert k in mod
     assert mod["final"]["twist_angle_deg"] < 0
-    for f in ("summary.json", "path.csv", "module.pvd"):
+    for f in ("summary.json", "path.csv", "module.pvd", "curves.png", "snapshots.png"):
         assert (out / f).exists() and f in info["files"]
+    for f in ("curves.png", "snapshots.png"):
+        assert (out / f).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     bad = CliRunner().invoke(app, ["fem", str(spec), "--module", "nope", "--out",
                                    str(tmp_path / "bad"), "--json"])
     assert bad.exit_code == 2 and "--module" in bad.output and "nope" in bad.output

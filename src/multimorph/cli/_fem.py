@@ -219,7 +219,7 @@ def _fem_device(spec: Path, table: dict[str, Any], *, mesh: str, element_size: s
 
     from multimorph.device import device_from_spec
     from multimorph.fe import FESettings, compare_device, fe_device_modules, simulate_device
-    from multimorph.fe._device import write_device_vtu
+    from multimorph.fe._device import plot_device, write_device_vtu
     from multimorph.io import atomic_output_dir, write_json
     from multimorph.units import to_si
 
@@ -263,6 +263,7 @@ def _fem_device(spec: Path, table: dict[str, Any], *, mesh: str, element_size: s
         if comparison is not None:
             write_json(tmp / "comparison.json", comparison)
             files.append("comparison.json")
+        files += plot_device(result, tmp)
         if vtu:
             files += write_device_vtu(result, tmp)
         info["files"] = files
@@ -319,7 +320,7 @@ def _fem_module(spec: Path, table: dict[str, Any], name: str, *, mesh: str,
         compare_twisting,
         simulate_twisting_module,
     )
-    from multimorph.fe._twist import write_twist_csv, write_twist_vtu
+    from multimorph.fe._twist import plot_twist, write_twist_csv, write_twist_vtu
     from multimorph.io import atomic_output_dir, write_json
     from multimorph.units import to_si
 
@@ -357,6 +358,7 @@ def _fem_module(spec: Path, table: dict[str, Any], name: str, *, mesh: str,
         if comparison is not None:
             write_json(tmp / "comparison.json", comparison)
             files.append("comparison.json")
+        files += plot_twist(result, tmp)
         if vtu:
             files += write_twist_vtu(result, tmp)
         info["files"] = files

@@ -46,7 +46,7 @@ from multimorph.fe._solve import PathPoint
 from multimorph.response import EquilibriumPath, Response, build_response
 
 __all__ = ["FE_MODULE_KINDS", "DeviceMesh", "FEDeviceResult", "compare_device", "device_mesh",
-           "fe_device_modules", "simulate_device"]
+           "fe_device_modules", "plot_device", "simulate_device"]
 
 
 def _section_motion(X: np.ndarray, x: np.ndarray, s: np.ndarray, e: np.ndarray,
@@ -417,3 +417,31 @@ def write_device_vtu(result: FEDeviceResult, folder: Any, stem: str = "device") 
     return write_hex_series(folder, stem, m.points, m.cells, result.displacements,
                             result.stretch, result.pressure,
                             {"region": m.region, "module": m.module, "material": m.material})
+
+
+def plot_device(result: FEDeviceResult, folder: Any) -> list[str]:
+    """``curves.png`` (pressure against every module's bend angle, centroid stretch and
+    V/V0, and the tip angle; each module's Pc marked) and ``snapshots.png`` (side views of
+    the deformed device, coloured by stretch) in ``folder``; returns the file names."""
+    from pathlib import Path
+
+    from multimorph.fe._output import plot_hex_snapshots, plot_path_panels
+
+    folder = Path(folder)
+    paths = {name: r.path for name, r in result.responses.items()}
+    marks = [(pc, f"Pc {name}") for name in paths
+             if (pc := result.activation(name)[0]) is not None]
+    plot_path_panels(
+        result.pressure, result.stable,
+        [("bend angle (°, module frame)",
+          {n: np.degrees(p.extra["bend_angle"]) for n, p in paths.items()}),
+         ("centroid stretch (-)", {n: p.axial_stretch for n, p in paths.items()}),
+         ("V / V0 (-)", {n: p.extra["volume_ratio"] for n, p in paths.items()}),
+         ("tip angle (°)", {"tip": np.degrees(result.tip_angle)})],
+        folder / "curves.png", marks=marks,
+        title=f"FE device {result.device.name} ({result.stats.get('nfree', '?')} DOF)")
+    m = result.mesh
+    plot_hex_snapshots(m.points, m.cells, result.displacements, result.stretch,
+                       result.pressure, folder / "snapshots.png",
+                       title="side view (outer third of the half model)")
+    return ["curves.png", "snapshots.png"]

@@ -22,7 +22,8 @@ from multimorph.fe._deps import require
 from multimorph.geometry import CellGeometry
 from multimorph.io import write_json
 
-__all__ = ["export_cell_solid", "summary", "write_fe_outputs"]
+__all__ = ["export_cell_solid", "plot_hex_snapshots", "plot_path_panels", "summary",
+           "write_fe_outputs"]
 
 _CSV_COLUMNS = [
     ("pressure_pa", lambda p: p.pressure),
@@ -154,29 +155,106 @@ def plot_curves(result: FEResult, path: Path) -> None:
 
 def plot_snapshots(result: FEResult, path: Path, count: int = 4) -> None:
     """Side views (y–z) of the deformed cell at a few path points, coloured by stretch."""
+    m = result.mesh
+    plot_hex_snapshots(m.points, m.cells, result.displacements, result.stretch,
+                       result.response.path.pressure, path, count=count)
+
+
+def plot_hex_snapshots(points: np.ndarray, cells: np.ndarray, displacements: np.ndarray,
+                       stretch: np.ndarray, pressure: np.ndarray, path: Path, *,
+                       count: int = 4, view: tuple[int, int] = (1, 2), slab: int = 0,
+                       slab_side: str = "low", title: str | None = None) -> None:
+    """Views of a deformed hex mesh at ``count`` path points, coloured by stretch (PNG).
+
+    The element centroids of one slab (the third of the mesh nearest its ``slab_side``
+    along axis ``slab``: the outer face of a half model by default) are projected on the
+    plane of the ``view`` axes (0 x, 1 y, 2 z), so walls in front hide nothing behind them.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    m = result.mesh
-    n = len(result.displacements)
-    picks = sorted({int(np.rint(i)) for i in np.linspace(0, n - 1, count)})
+    picks = _snapshot_picks(np.asarray(pressure, dtype=float), count)
+    cen0 = points[cells].mean(axis=1)[:, slab]
+    lo, hi = float(cen0.min()), float(cen0.max())
+    third = (hi - lo) / 3 + 1e-12 * max(abs(hi), 1.0)
+    front = cen0 <= lo + third if slab_side == "low" else cen0 >= hi - third
+    vmax = float(np.nanmax(stretch[picks][:, front])) if front.any() else 1.0
     fig, axes = plt.subplots(1, len(picks), figsize=(3.2 * len(picks), 3.2),
                              constrained_layout=True, squeeze=False)
-    cen0 = m.points[m.cells].mean(axis=1)
+    names = "xyz"
+    sc = None
+    cens = {i: (points + displacements[i])[cells].mean(axis=1)[front] * 1e3 for i in picks}
+    both = np.concatenate([c[:, list(view)] for c in cens.values()])
+    pad = 0.03 * float(np.ptp(both, axis=0).max())
+    lims = [(float(both[:, k].min()) - pad, float(both[:, k].max()) + pad) for k in (0, 1)]
     for ax, i in zip(axes[0], picks, strict=True):
-        x = m.points + result.displacements[i]
-        cen = x[m.cells].mean(axis=1)
-        front = cen0[:, 0] < cen0[:, 0].min() + 1e-9 + (cen0[:, 0].max() - cen0[:, 0].min()) / 3
-        sc = ax.scatter(cen[front, 1] * 1e3, cen[front, 2] * 1e3, c=result.stretch[i][front],
-                        s=6, cmap="viridis", vmin=1.0)
+        cen = cens[i]
+        sc = ax.scatter(cen[:, view[0]], cen[:, view[1]], c=stretch[i][front], s=6,
+                        cmap="viridis", vmin=1.0, vmax=max(vmax, 1.0 + 1e-6))
+        ax.set_xlim(*lims[0])
+        ax.set_ylim(*lims[1])
         ax.set_aspect("equal")
-        ax.set_title(f"P = {result.response.path.pressure[i] / 1e3:.3g} kPa", fontsize=9)
-        ax.set_xlabel("y (mm)")
-        ax.set_ylabel("z (mm)")
-    fig.colorbar(sc, ax=axes[0].tolist(), label="max principal stretch", shrink=0.8)
+        ax.set_title(f"P = {float(pressure[i]) / 1e3:.3g} kPa", fontsize=9)
+        ax.set_xlabel(f"{names[view[0]]} (mm)")
+        ax.set_ylabel(f"{names[view[1]]} (mm)")
+    if sc is not None:
+        fig.colorbar(sc, ax=axes[0].tolist(), label="max principal stretch", shrink=0.8)
+    if title:
+        fig.suptitle(title, fontsize=10)
     fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _snapshot_picks(pressure: np.ndarray, count: int) -> list[int]:
+    """Path points to show: the first to reach each of ``count`` evenly spaced pressures
+    from 0 to the highest, and the last point (a path crowds its points where it balloons,
+    so evenly spaced indices would show mostly the end)."""
+    n = len(pressure)
+    if n == 0:
+        return []
+    top = float(np.max(pressure))
+    picks = {n - 1}
+    for t in np.linspace(0.0, top, max(count, 1)):
+        picks.add(int(np.argmax(pressure >= t - 1e-12 * max(abs(top), 1.0))))
+    return sorted(picks)
+
+
+def plot_path_panels(pressure: np.ndarray, stable: np.ndarray,
+                     panels: Sequence[tuple[str, Mapping[str, np.ndarray]]], path: Path, *,
+                     title: str, marks: Sequence[tuple[float, str]] = ()) -> None:
+    """Pressure (kPa) against one or more path quantities per panel (PNG).
+
+    ``panels``: (x-axis label, {curve label: values per path point}); unstable points are
+    crossed; ``marks`` are horizontal lines (pressure in Pa, label), e.g. Pc and Ph.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, len(panels), figsize=(4 * len(panels), 3.8),
+                             constrained_layout=True, squeeze=False)
+    pk = np.asarray(pressure) / 1e3
+    st = np.asarray(stable, dtype=bool)
+    for ax, (label, curves) in zip(axes[0], panels, strict=True):
+        for k, (name, x) in enumerate(curves.items()):
+            x = np.asarray(x, dtype=float)
+            ax.plot(x, pk, "-", color=f"C{k}", lw=1, label=name)
+            if (~st).any():
+                ax.plot(x[~st], pk[~st], "x", color=f"C{k}", ms=4)
+        for val, name in marks:
+            ax.axhline(val / 1e3, color="k", ls="--", lw=0.7)
+            ax.text(0.02, val / 1e3, f" {name}", va="bottom", fontsize=7,
+                    transform=ax.get_yaxis_transform())
+        ax.set_xlabel(label)
+        ax.set_ylabel("P (kPa)")
+        ax.grid(alpha=0.3)
+        if len(curves) > 1:
+            ax.legend(fontsize=7)
+    fig.suptitle(title + ("  (x: unstable points)" if (~st).any() else ""), fontsize=10)
+    fig.savefig(path, dpi=120)
     plt.close(fig)
 
 

@@ -45,8 +45,8 @@ from multimorph.fe._solve import PathPoint
 from multimorph.fe._twist_mesh import TwistMesh, twisting_module_mesh
 from multimorph.response import EquilibriumPath, Response, build_response
 
-__all__ = ["FETwistResult", "compare_twisting", "simulate_twisting_module", "write_twist_csv",
-           "write_twist_vtu"]
+__all__ = ["FETwistResult", "compare_twisting", "plot_twist", "simulate_twisting_module",
+           "write_twist_csv", "write_twist_vtu"]
 
 
 def _sense(beta: float) -> float:
@@ -396,3 +396,30 @@ def write_twist_csv(result: FETwistResult, path: Any) -> None:
         for i in range(len(p)):
             w.writerow([*(f"{c[i]:.8g}" for c in cols.values()), int(p.stable[i]),
                         int(p.extra["arc_length"][i])])
+
+
+def plot_twist(result: FETwistResult, folder: Any) -> list[str]:
+    """``curves.png`` (pressure against twist angle, axial stretch, V/V0 and peak stretch,
+    Pc and Ph marked) and ``snapshots.png`` (the free end third seen along the axis,
+    coloured by stretch) in ``folder``; returns the file names."""
+    from pathlib import Path
+
+    from multimorph.fe._output import plot_hex_snapshots, plot_path_panels
+
+    folder = Path(folder)
+    p = result.response.path
+    pc, ph = result.activation()
+    marks = [(v, k) for v, k in ((pc, "Pc"), (ph, "Ph")) if v is not None]
+    plot_path_panels(
+        result.pressure, p.stable,
+        [("twist angle (°, right-handed about +y)", {"twist": np.degrees(result.twist_angle)}),
+         ("axial stretch (-)", {"stretch": p.axial_stretch}),
+         ("V / V0 (-)", {"V/V0": p.extra["volume_ratio"]}),
+         ("peak principal stretch (-)", {"peak": p.peak_stretch})],
+        folder / "curves.png", marks=marks,
+        title=f"FE twisting module {result.module.name} ({result.stats.get('nfree', '?')} DOF)")
+    m = result.mesh
+    plot_hex_snapshots(m.points, m.cells, result.displacements, result.stretch,
+                       result.pressure, folder / "snapshots.png", view=(0, 2), slab=1,
+                       slab_side="high", title="free-end third seen along the axis (x–z)")
+    return ["curves.png", "snapshots.png"]
