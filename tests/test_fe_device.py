@@ -291,3 +291,14 @@ def test_cli_fem_device_writes_its_files(tmp_path: Path, monkeypatch: pytest.Mon
     stalk = float(last["stalk"]["bend_angle_deg"])
     assert stalk > 1.0 and abs(float(last["seal"]["bend_angle_deg"])) < 0.2 * stalk
     assert float(last["seal"]["axial_stretch"]) > 1.0
+    # where each module's peak stretch is: inside that module, in a named region
+    mods = json.loads((out / "summary.json").read_text())["device"]["modules"]
+    start = 0.0
+    for name in ("seal", "stalk"):
+        fin, length = mods[name]["final"], mods[name]["length_m"]
+        x, y, z = fin["peak_location_m"]
+        assert start < y < start + length and 0 < x and 0 < z < 6e-3
+        assert fin["peak_region"] in ("wall", "bottom layer")
+        assert fin["peak_stretch"] == pytest.approx(float(last[name]["peak_stretch"]),
+                                                    rel=1e-6)
+        start += length

@@ -259,6 +259,8 @@ def test_cli_fem_module(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None
     for k in ("critical_pressure", "hardening_pressure", "final", "stats", "tilt_deg"):
         assert k in mod
     assert mod["final"]["twist_angle_deg"] < 0
+    # the peak stretch sits in a strip's wall (the chambers balloon), not in the shaft
+    assert mod["final"]["peak_region"] == "wall" and len(mod["final"]["peak_location_m"]) == 3
     for f in ("summary.json", "path.csv", "module.pvd", "curves.png", "snapshots.png"):
         assert (out / f).exists() and f in info["files"]
     for f in ("curves.png", "snapshots.png"):

@@ -298,6 +298,13 @@ def _fem_device(spec: Path, table: dict[str, Any], *, mesh: str, element_size: s
             line += (f"  {kpa(k['pc_rom']):>6} {_pct(k['pc_rel']):>5} {kpa(k['ph_rom']):>6} "
                      f"{_pct(k['ph_rel']):>5}")
         console.print(line, highlight=False, soft_wrap=True)
+    fin = {m.name: info["device"]["modules"][m.name]["final"] for m in result.mesh.modules}
+    worst = max(fin, key=lambda k: fin[k]["peak_stretch"])
+    w = fin[worst]
+    console.print(f"peak principal stretch {w['peak_stretch']:.3f} at "
+                  f"{w['pressure_pa'] / 1e3:.3g} kPa in module {worst!r} ({w['peak_region']}, "
+                  f"at x, y, z = {', '.join(f'{v * 1e3:.1f}' for v in w['peak_location_m'])} mm "
+                  f"undeformed)", highlight=False)
     console.print(f"tip at {result.pressure[-1] / 1e3:.3g} kPa: y = "
                   f"{result.tip[-1, 1] * 1e3:.2f} mm, z = {result.tip[-1, 2] * 1e3:.2f} mm, "
                   f"angle {math.degrees(result.tip_angle[-1]):.1f}°", highlight=False)
@@ -382,7 +389,10 @@ def _fem_module(spec: Path, table: dict[str, Any], name: str, *, mesh: str,
     console.print(f"Pc = {kpa(pc)}, Ph = {kpa(ph)} (on the twist rate); at "
                   f"{fin['pressure_pa'] / 1e3:.3g} kPa: twist {fin['twist_angle_deg']:+.2f}° "
                   f"(right-handed about the axis), axial stretch {fin['axial_stretch']:.4f}, "
-                  f"V/V0 = {fin['volume_ratio']:.2f}", highlight=False)
+                  f"V/V0 = {fin['volume_ratio']:.2f}; peak principal stretch "
+                  f"{fin['peak_stretch']:.3f} ({fin['peak_region']}, at x, y, z = "
+                  f"{', '.join(f'{v * 1e3:.1f}' for v in fin['peak_location_m'])} mm "
+                  f"undeformed)", highlight=False)
     if comparison is not None:
         c = comparison
         console.print(f"ROM vs FE (twist in the sense of the tilt): Pc {kpa(c['pc_rom'])} vs "

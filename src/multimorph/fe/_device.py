@@ -40,7 +40,7 @@ from multimorph.fe._device_mesh import (
 )
 from multimorph.fe._linsolve import make_solver
 from multimorph.fe._measure import _kabsch, bend_and_twist, chamber_volume, largest_stretch
-from multimorph.fe._mesh import MeshDensity
+from multimorph.fe._mesh import REGION_NAMES, MeshDensity
 from multimorph.fe._problem import PressureProblem
 from multimorph.fe._solve import PathPoint
 from multimorph.response import EquilibriumPath, Response, build_response
@@ -118,8 +118,14 @@ class _DeviceRecorder:
         F = self.problem.deformation_gradient()
         ev = largest_stretch(F)  # (q, cells)
         cell_peak = ev.max(axis=0)
+        where = np.zeros((k, 3))
+        region = np.zeros(k, dtype=int)
         for i in range(k):
-            peak[i] = float(cell_peak[m.module == i].max())
+            own = np.flatnonzero(m.module == i)
+            j = int(own[np.argmax(cell_peak[own])])
+            peak[i] = float(cell_peak[j])
+            where[i] = m.points[m.cells[j]].mean(axis=0)  # reference centroid
+            region[i] = int(m.region[j])
         tip_bend = _section_motion(m.points, x, m.start_sections[0], m.end_sections[-1],
                                    self.mirror_x)[0]
         if prev is not None:
@@ -129,7 +135,8 @@ class _DeviceRecorder:
             tip[0] = m.width / 2  # the whole section's centroid, by symmetry
         self.rows.append({
             "pressure": pt.pressure * self.mu, "rel_bend": bend, "twist": twist,
-            "stretch": lam, "volume": vol, "peak": peak, "tip": tip, "tip_angle": tip_bend,
+            "stretch": lam, "volume": vol, "peak": peak, "peak_location": where,
+            "peak_region": region, "tip": tip, "tip_angle": tip_bend,
             "stable": bool(pt.stable) if pt.stable is not None else True,
             "iterations": pt.iterations, "arc_length": pt.method == "arc-length",
         })
@@ -170,6 +177,8 @@ class _DeviceRecorder:
             extra={"bend_angle": bend,
                    "bend_angle_device": self.sign[i] * bend,
                    "volume_ratio": vol / self.V0[i],
+                   "peak_location": np.array([row["peak_location"][i] for row in r]),
+                   "peak_region": np.array([row["peak_region"][i] for row in r]),
                    "arc_length": np.array([row["arc_length"] for row in r])})
 
 
@@ -247,6 +256,7 @@ class FEDeviceResult:
                 "at_max_pressure": {"pressure_pa": at["pressure"],
                                     "bend_angle_deg": math.degrees(at["bend_angle"]),
                                     "axial_stretch": at["axial_stretch"]},
+                "final": _peak_at_end(p),
             }
             if paths:
                 mods[m.name]["path"] = {
@@ -350,6 +360,16 @@ def simulate_device(device: Device, settings: FESettings | None = None,
         tip=np.array([r["tip"] for r in rows]),
         tip_angle=np.array([r["tip_angle"] for r in rows]),
         displacements=np.array(rec.u), stretch=np.array(rec.cell_stretch), stats=stats)
+
+
+def _peak_at_end(path: EquilibriumPath) -> dict[str, Any]:
+    """The last point's largest principal stretch, where it is (reference centroid of its
+    element, m) and that element's region."""
+    reg = int(path.extra["peak_region"][-1])
+    return {"pressure_pa": float(path.pressure[-1]),
+            "peak_stretch": float(path.peak_stretch[-1]),
+            "peak_location_m": [float(v) for v in path.extra["peak_location"][-1]],
+            "peak_region": REGION_NAMES[reg]}
 
 
 def _rel(a: float | None, b: float | None) -> float | None:

@@ -26,6 +26,8 @@ from multimorph.geometry import CellGeometry
 __all__ = ["MAX_TILT", "MESH_PRESETS", "CellMesh", "MeshDensity", "cell_mesh", "resolve_density"]
 
 WALL, BOTTOM = 0, 1
+#: names of the element regions by tag (twisting modules add 2, the shaft)
+REGION_NAMES = ("wall", "bottom layer", "shaft")
 """Region tags: wall elastomer (top, side and end walls) and the stiff bottom layer."""
 
 MAX_TILT = math.radians(80.0)

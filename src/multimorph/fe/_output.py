@@ -19,6 +19,7 @@ import numpy as np
 
 from multimorph.fe._cell import FEResult
 from multimorph.fe._deps import require
+from multimorph.fe._mesh import REGION_NAMES
 from multimorph.geometry import CellGeometry
 from multimorph.io import write_json
 
@@ -60,6 +61,7 @@ def summary(result: FEResult) -> dict[str, Any]:
             "axial_stretch": float(p.axial_stretch[-1]),
             "peak_stretch": float(p.peak_stretch[-1]),
             "peak_location_m": [float(v) for v in p.extra["peak_location"][-1]],
+            "peak_region": REGION_NAMES[int(p.extra["peak_region"][-1])],
             **strip,
         },
         "max_pressure_pa": float(np.max(p.pressure)),

@@ -39,7 +39,7 @@ from multimorph.fe._cell import FESettings, path_end, trace_path
 from multimorph.fe._deps import require
 from multimorph.fe._linsolve import make_solver
 from multimorph.fe._measure import bend_and_twist, chamber_volume, largest_stretch
-from multimorph.fe._mesh import MeshDensity
+from multimorph.fe._mesh import REGION_NAMES, MeshDensity
 from multimorph.fe._problem import PressureProblem
 from multimorph.fe._solve import PathPoint
 from multimorph.fe._twist_mesh import TwistMesh, twisting_module_mesh
@@ -89,10 +89,13 @@ class _TwistRecorder:
         vol = chamber_volume(x, m.chamber_faces)
         F = self.problem.deformation_gradient()
         ev = largest_stretch(F)  # (q, cells)
+        cell = int(np.unravel_index(np.argmax(ev), ev.shape)[1])
         self.rows.append({
             "pressure": pt.pressure * self.mu, "twist_angle": twist, "bend_angle": bend,
             "axial_stretch": 1.0 + uy / m.length, "volume": vol,
             "peak": float(ev.max()), "tip": (self.weights @ x[end]),
+            "peak_location": m.points[m.cells[cell]].mean(axis=0),  # reference centroid
+            "peak_region": int(m.region[cell]),
             "stable": bool(pt.stable) if pt.stable is not None else True,
             "iterations": pt.iterations, "arc_length": pt.method == "arc-length",
         })
@@ -130,6 +133,8 @@ class _TwistRecorder:
             extra={"twist_angle": angle,
                    "bend_angle": np.array([row["bend_angle"] for row in r]),
                    "volume_ratio": vol / self.V0,
+                   "peak_location": np.array([row["peak_location"] for row in r]),
+                   "peak_region": np.array([row["peak_region"] for row in r]),
                    "arc_length": np.array([row["arc_length"] for row in r])})
 
 
@@ -197,7 +202,11 @@ class FETwistResult:
                       "twist_rate_rad_per_m": float(self.twist_angle[-1] / m.length),
                       "axial_stretch": float(self.axial_stretch[-1]),
                       "volume_ratio": float(r.path.extra["volume_ratio"][-1]),
-                      "peak_stretch": float(r.path.peak_stretch[-1])},
+                      "peak_stretch": float(r.path.peak_stretch[-1]),
+                      "peak_location_m": [float(v) for v in
+                                          r.path.extra["peak_location"][-1]],
+                      "peak_region": REGION_NAMES[int(r.path.extra["peak_region"][-1])],
+                      },
             "stats": self.stats,
         }
         if paths:
