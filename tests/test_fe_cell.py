@@ -172,3 +172,103 @@ def test_progress_callbacks_print_during_continuation(capsys) -> None:
     lines = [ln for ln in out.splitlines() if ln.startswith("point ")]
     assert len(lines) >= 3
     assert "Step" not in out and "|" not in out  # nothing of contique's table
+
+
+def test_interrupted_path_resumes_from_its_checkpoint(tmp_path: Path) -> None:
+    """A run interrupted (KeyboardInterrupt from its progress callback) keeps its converged
+    points; a second run with the same key replays them and goes on. Pressure steps resume
+    with the step size and secant predictor they would have had, so the path is the
+    uninterrupted one; a path resumed on continuation keeps the saved points exactly and
+    reaches the same end with less work. Another key discards the folder."""
+    from multimorph.fe import PathCheckpoint
+
+    g = _cell("gent", jm=30.0)
+    dens = MeshDensity(1, length_fraction=1 / 5)
+
+    def interrupted(settings: FESettings, folder: Path, k: int) -> None:
+        def stop(p: float, n: int) -> None:
+            if n == k:
+                raise KeyboardInterrupt
+
+        with pytest.raises(KeyboardInterrupt):
+            simulate_cell(g, settings, checkpoint=PathCheckpoint(folder, "key"), progress=stop)
+
+    s = FESettings(mesh=dens, p_max=0.6 * MU, method="pressure")
+    full = simulate_cell(g, s)
+    interrupted(s, tmp_path / "p", 5)
+    ck = PathCheckpoint(tmp_path / "p", "key")
+    again = simulate_cell(g, s, checkpoint=ck)
+    assert ck.resumed == 4 and again.stats["resumed_points"] == 4
+    assert np.array_equal(again.response.path.pressure, full.response.path.pressure)
+    assert np.allclose(again.displacements, full.displacements, rtol=0, atol=1e-12)
+    assert again.stats["newton_iterations"] < full.stats["newton_iterations"]
+
+    s = FESettings(mesh=dens, p_max=0.6 * MU, method="auto")
+    full = simulate_cell(g, s)
+    arc = full.response.path.extra["arc_length"]
+    k = int(np.argmax(arc)) + 4  # a few points into the continuation
+    interrupted(s, tmp_path / "a", k)
+    ck = PathCheckpoint(tmp_path / "a", "key")
+    again = simulate_cell(g, s, checkpoint=ck)
+    assert ck.resumed == k - 1
+    p0, p1 = full.response.path.pressure, again.response.path.pressure
+    assert np.array_equal(p1[:k], p0[:k])
+    assert np.array_equal(again.displacements[:k], full.displacements[:k])
+    assert again.response.path.extra["arc_length"][k:].all()
+    assert again.stats["stop_reason"] == full.stats["stop_reason"] == "reached p_max"
+    assert again.stats["newton_iterations"] < full.stats["newton_iterations"]
+
+    other = PathCheckpoint(tmp_path / "a", "another key")
+    assert other.load(again.stats["nfree"]) == [] and "changed" in (other.discarded or "")
+    assert not (tmp_path / "a").exists()
+
+
+def test_cli_fem_interrupted_resumes(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Ctrl-C during ``multimorph fem``: exit 130, no output folder, the points kept in
+    ``<out>.resume``; the same command resumes from them (the summary says how many) and
+    removes the folder; ``--restart`` starts afresh."""
+    import contextlib
+
+    from typer.testing import CliRunner
+
+    import multimorph.cli._fem as cli_fem
+    from multimorph.cli._app import _register, app
+
+    _register()
+    spec = tmp_path / "cell.toml"
+    spec.write_text(
+        '[cell]\nlength = "10 mm"\nwidth = "8 mm"\nheight = "6 mm"\ntop_wall = "1 mm"\n'
+        'bottom_wall = "1.5 mm"\nside_wall = "1.5 mm"\nend_wall = "1.5 mm"\n'
+        '[cell.material]\nmodel = "gent"\nmu = "100 kPa"\njm = 30\n'
+        '[cell.bottom_material]\nmodel = "gent"\nmu = "1 MPa"\njm = 30\n')
+    out = tmp_path / "out"
+    args = ["fem", str(spec), "--element-size", "2 mm", "--pmax", "15 kPa", "--method",
+            "pressure", "--out", str(out), "--json"]
+    real = cli_fem._progress
+
+    @contextlib.contextmanager
+    def ctrl_c(label: str, p_end: float, quiet: bool):  # type: ignore[no-untyped-def]
+        def progress(p: float, n: int) -> None:
+            if n == 4:
+                raise KeyboardInterrupt
+
+        yield progress
+
+    monkeypatch.setattr(cli_fem, "_progress", ctrl_c)
+    res = CliRunner().invoke(app, args)
+    assert res.exit_code == 130
+    assert "resume" in res.output and not out.exists()
+    resume = tmp_path / "out.resume"
+    assert len(list(resume.glob("point_*.npz"))) == 3
+    monkeypatch.setattr(cli_fem, "_progress", real)
+    res = CliRunner().invoke(app, args)
+    assert res.exit_code == 0, res.output
+    info = json.loads(res.output)
+    assert info["stats"]["resumed_points"] == 3
+    assert info["final"]["pressure_pa"] == pytest.approx(15e3)
+    assert (out / "summary.json").is_file() and not resume.exists()
+    monkeypatch.setattr(cli_fem, "_progress", ctrl_c)
+    CliRunner().invoke(app, args)
+    monkeypatch.setattr(cli_fem, "_progress", real)
+    res = CliRunner().invoke(app, [*args, "--restart"])
+    assert res.exit_code == 0 and json.loads(res.output)["stats"]["resumed_points"] == 0

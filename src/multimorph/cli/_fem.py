@@ -34,6 +34,44 @@ def _progress(label: str, p_end: float, quiet: bool) -> Iterator[Callable[[float
         yield progress
 
 
+def _checkpoint(spec: Path, folder: Path, options: dict[str, Any], restart: bool) -> Any:
+    """The resume folder of an FE run (``<out>.resume`` beside ``--out``), keyed to the
+    spec file's bytes, the options and the package version; emptied with ``--restart``."""
+    import hashlib
+    import json
+
+    from multimorph import __version__
+    from multimorph.fe import PathCheckpoint
+
+    h = hashlib.sha256(spec.read_bytes())
+    h.update(json.dumps({**options, "version": __version__}, sort_keys=True,
+                        default=str).encode())
+    ck = PathCheckpoint(folder.with_name(folder.name + ".resume"), h.hexdigest())
+    if restart:
+        ck.clear()
+    return ck
+
+
+@contextlib.contextmanager
+def _resumable(ck: Any, quiet: bool) -> Iterator[None]:
+    """Ctrl-C keeps the converged points: say where and how to go on, exit 130."""
+    try:
+        yield
+    except KeyboardInterrupt:
+        err_console.print(f"interrupted: {ck.saved} converged points are kept in "
+                          f"{ck.folder}/; run the same command again to resume from them "
+                          f"(--restart starts afresh)", highlight=False, soft_wrap=True)
+        raise typer.Exit(130) from None
+    if ck.discarded and not quiet:
+        err_console.print(f"note: the points in {ck.folder}/ were not reused "
+                          f"({ck.discarded}); started afresh", highlight=False)
+
+
+def _resumed_note(stats: dict[str, Any], ck: Any) -> str:
+    n = int(stats.get("resumed_points", 0))
+    return f"; resumed from {n} saved points" if n else ""
+
+
 def fem(
     spec: Annotated[Path, typer.Argument(
         help="Cell spec (TOML) with a [cell] table, or a device spec with [device] and "
@@ -71,6 +109,9 @@ def fem(
         "--module", help="Device spec: run FE of this one module, clamped at its start (a "
                          "twisting module: its strips around the shaft; a bending or "
                          "stretching module: one copy as a one-module device).")] = None,
+    restart: Annotated[bool, typer.Option(
+        "--restart", help="Ignore the points an interrupted run of this command kept in "
+                          "<out>.resume and start afresh.")] = False,
 ) -> None:
     """Inflate a cell (or a module of --cells cells in series) with 3D FE: path, Pc/Ph,
     curves, VTU series, STEP/STL. A device spec ([device], [[module]]: bending and
@@ -85,6 +126,10 @@ def fem(
     With --module NAME (device spec) only that module runs: a twisting module as its strips
     around the shaft, measured by the twist angle of its free end; --compare sets the twist
     angle, axial stretch, Pc and Ph against the reduced model's module strains.
+
+    Interrupting (Ctrl-C) keeps every converged point in <out>.resume; the same command
+    again resumes from them (--restart starts afresh). The folder goes once the results
+    are written.
     """
 
     from multimorph.errors import SpecError
@@ -96,6 +141,9 @@ def fem(
 
     with handle_errors(as_json):
         table = load_toml(spec)
+        options = {"mesh": mesh, "element_size": element_size, "pmax": pmax,
+                   "method": method, "solver": solver, "full": full, "cells": cells,
+                   "tilt": tilt, "module": module}
         if module is not None:
             if "device" not in table:
                 raise SpecError(f"--module: applies to a device spec ([device] and [[module]] "
@@ -105,7 +153,7 @@ def fem(
                                 f"spec; with --module the module table gives them")
             _fem_module(spec, table, module, mesh=mesh, element_size=element_size, pmax=pmax,
                         method=method, solver=solver, full=full, vtu=vtu, out=out,
-                        compare=compare, as_json=as_json)
+                        compare=compare, as_json=as_json, options=options, restart=restart)
             return
         if "device" in table:
             if cells != 1:
@@ -116,7 +164,7 @@ def fem(
                                 "and stretching modules only")
             _fem_device(spec, table, mesh=mesh, element_size=element_size, pmax=pmax,
                         method=method, solver=solver, full=full, vtu=vtu, out=out,
-                        compare=compare, as_json=as_json)
+                        compare=compare, as_json=as_json, options=options, restart=restart)
             return
         if "cell" not in table:
             raise SpecError(f"{spec}: missing [cell] table (or a device table with modules)")
@@ -137,9 +185,10 @@ def fem(
                               p_max=p_max, method=method, solver=solver)
         p_end = p_max if p_max is not None else geometry.mu
         folder = out if out is not None else Path("multimorph-out") / f"fem-{spec.stem}"
-        with _progress("fem", p_end, as_json) as progress:
+        ck = _checkpoint(spec, folder, options, restart)
+        with _resumable(ck, as_json), _progress("fem", p_end, as_json) as progress:
             result = simulate_cell(geometry, settings, progress=progress, n_cells=cells,
-                                   tilt=beta)
+                                   tilt=beta, checkpoint=ck)
         info = summary(result)
         comparison = None
         shear = None
@@ -163,6 +212,7 @@ def fem(
 
                 write_json(tmp / "comparison.json", (comparison or shear).to_dict())
                 info["files"].append("comparison.json")
+        ck.clear()
         info["out"] = str(folder)
         if as_json:
             emit_json(info)
@@ -178,7 +228,8 @@ def fem(
             what = f"FE tilted strip of {cells} cell{'s' if cells > 1 else ''}"
         console.print(f"[bold]{what}[/] {st['nfree']} DOF, {st['points']} points, "
                       f"{st['newton_iterations']} Newton iterations, {st['solver']}, "
-                      f"{st['wall_time']:.1f} s ({st['stop_reason'] or st['status']})")
+                      f"{st['wall_time']:.1f} s ({st['stop_reason'] or st['status']})"
+                      f"{_resumed_note(st, ck)}")
         console.print(f"Pc = {kpa(c.critical)} ({c.critical_kind}), Ph = {kpa(c.hardening)}, "
                       f"failure = {kpa(c.failure)}")
         fin = info["final"]
@@ -212,7 +263,8 @@ def fem(
 
 def _fem_device(spec: Path, table: dict[str, Any], *, mesh: str, element_size: str | None,
                 pmax: str | None, method: str, solver: str, full: bool, vtu: bool,
-                out: Path | None, compare: bool, as_json: bool, device: Any = None) -> None:
+                out: Path | None, compare: bool, as_json: bool, device: Any = None,
+                options: dict[str, Any] | None = None, restart: bool = False) -> None:
     """``multimorph fem DEVICE.toml``: parse, run :func:`multimorph.fe.simulate_device`,
     write the files, print the per-module table (``device``: run this one instead of the
     spec's)."""
@@ -230,8 +282,9 @@ def _fem_device(spec: Path, table: dict[str, Any], *, mesh: str, element_size: s
     settings = FESettings(mesh=mesh, element_size=size, half=not full, p_max=p_max,
                           method=method, solver=solver)
     folder = out if out is not None else Path("multimorph-out") / f"fem-{spec.stem}"
-    with _progress("fem device", p_max, as_json) as progress:
-        result = simulate_device(device, settings, progress=progress)
+    ck = _checkpoint(spec, folder, options or {}, restart)
+    with _resumable(ck, as_json), _progress("fem device", p_max, as_json) as progress:
+        result = simulate_device(device, settings, progress=progress, checkpoint=ck)
     comparison = None
     if compare:  # the reduced-model device to 2 × p_max (it is stiffer than FE)
         comparison = compare_device(result)
@@ -267,6 +320,7 @@ def _fem_device(spec: Path, table: dict[str, Any], *, mesh: str, element_size: s
         if vtu:
             files += write_device_vtu(result, tmp)
         info["files"] = files
+    ck.clear()
     info["out"] = str(folder)
     if as_json:
         emit_json(info)
@@ -279,7 +333,8 @@ def _fem_device(spec: Path, table: dict[str, Any], *, mesh: str, element_size: s
     console.print(f"[bold]FE device[/] {device.name}: {len(result.responses)} modules, "
                   f"{st['nfree']} DOF, {st['points']} points, {st['newton_iterations']} Newton "
                   f"iterations, {st['solver']}, {st['wall_time']:.1f} s "
-                  f"({st['stop_reason'] or st['status']})", highlight=False)
+                  f"({st['stop_reason'] or st['status']}){_resumed_note(st, ck)}",
+                  highlight=False)
     top = float(result.pressure.max())
     head = f"  {'module':<10} {'kind':<10} {'Pc':>6} {'Ph':>6} {'bend°':>6} {'stretch':>7}"
     if comparison is not None:
@@ -313,7 +368,8 @@ def _fem_device(spec: Path, table: dict[str, Any], *, mesh: str, element_size: s
 
 def _fem_module(spec: Path, table: dict[str, Any], name: str, *, mesh: str,
                 element_size: str | None, pmax: str | None, method: str, solver: str,
-                full: bool, vtu: bool, out: Path | None, compare: bool, as_json: bool) -> None:
+                full: bool, vtu: bool, out: Path | None, compare: bool, as_json: bool,
+                options: dict[str, Any] | None = None, restart: bool = False) -> None:
     """``multimorph fem DEVICE.toml --module NAME``: one module of a device spec, clamped at
     its start. Twisting: :func:`multimorph.fe.simulate_twisting_module`; bending and
     stretching: one copy of the module as a one-module device (the device route)."""
@@ -342,7 +398,8 @@ def _fem_module(spec: Path, table: dict[str, Any], name: str, *, mesh: str,
                               radius=0.0),), name=f"{device.name}: {name}", pmax=device.pmax)
         _fem_device(spec, table, mesh=mesh, element_size=element_size, pmax=pmax,
                     method=method, solver=solver, full=full, vtu=vtu, out=out,
-                    compare=compare, as_json=as_json, device=one)
+                    compare=compare, as_json=as_json, device=one, options=options,
+                    restart=restart)
         return
     if mod.kind != "twisting":
         raise SpecError(f"module {name!r}.kind: {mod.kind!r} is not supported by FE (twisting, "
@@ -352,8 +409,10 @@ def _fem_module(spec: Path, table: dict[str, Any], name: str, *, mesh: str,
     settings = FESettings(mesh=mesh, element_size=size, half=False, p_max=p_max,
                           method=method, solver=solver)
     folder = out if out is not None else Path("multimorph-out") / f"fem-{spec.stem}-{name}"
-    with _progress("fem module", p_max, as_json) as progress:
-        result = simulate_twisting_module(mod, settings, p_max=p_max, progress=progress)
+    ck = _checkpoint(spec, folder, options or {}, restart)
+    with _resumable(ck, as_json), _progress("fem module", p_max, as_json) as progress:
+        result = simulate_twisting_module(mod, settings, p_max=p_max, progress=progress,
+                                          checkpoint=ck)
     comparison = compare_twisting(result) if compare else None
     info: dict[str, Any] = {"backend": "fe", "module": result.to_dict(paths=False)}
     if comparison is not None:
@@ -369,6 +428,7 @@ def _fem_module(spec: Path, table: dict[str, Any], name: str, *, mesh: str,
         if vtu:
             files += write_twist_vtu(result, tmp)
         info["files"] = files
+    ck.clear()
     info["out"] = str(folder)
     if as_json:
         emit_json(info)
@@ -384,7 +444,8 @@ def _fem_module(spec: Path, table: dict[str, Any], name: str, *, mesh: str,
                   f"{st['nfree']} DOF, "
                   f"{st['points']} points, {st['newton_iterations']} Newton iterations, "
                   f"{st['solver']}, {st['wall_time']:.1f} s "
-                  f"({st['stop_reason'] or st['status']})", highlight=False)
+                  f"({st['stop_reason'] or st['status']}){_resumed_note(st, ck)}",
+                  highlight=False)
     fin = info["module"]["final"]
     console.print(f"Pc = {kpa(pc)}, Ph = {kpa(ph)} (on the twist rate); at "
                   f"{fin['pressure_pa'] / 1e3:.3g} kPa: twist {fin['twist_angle_deg']:+.2f}° "

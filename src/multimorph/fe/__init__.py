@@ -14,6 +14,7 @@ Heavy dependencies are imported inside functions; a missing one raises
 """
 
 from multimorph.fe._cell import FEResult, FESettings, build_cell_problem, simulate_cell
+from multimorph.fe._checkpoint import PathCheckpoint
 from multimorph.fe._compare import (
     Comparison,
     ShearComparison,
@@ -61,6 +62,7 @@ __all__ = [
     "MeshDensity",
     "MissingExtraError",
     "NonFiniteSystemError",
+    "PathCheckpoint",
     "PathPoint",
     "PathRun",
     "PressureProblem",

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from multimorph.errors import MultimorphError, SpecError
+from multimorph.fe._checkpoint import PathCheckpoint
 from multimorph.fe._deps import require
 from multimorph.fe._linsolve import LinearSolver, make_solver
 from multimorph.fe._measure import (
@@ -259,7 +260,8 @@ def _merge(a: PathRun, b: PathRun) -> PathRun:
 
 
 def trace_path(problem: PressureProblem, solver: LinearSolver, settings: FESettings,
-               p_end: float, on_point: Callable[[PathPoint], bool]) -> PathRun:
+               p_end: float, on_point: Callable[[PathPoint], bool], *,
+               checkpoint: PathCheckpoint | None = None) -> PathRun:
     """Trace a pressure path to ``p_end`` (units of the problem) as ``settings.method`` says.
 
     ``"auto"``: pressure steps (Δp from p_end/20, down to p_end/400, up to p_end/8), handing
@@ -269,28 +271,67 @@ def trace_path(problem: PressureProblem, solver: LinearSolver, settings: FESetti
     medium reference mesh, a third more points); ``"pressure"``: steps only;
     ``"arc-length"``: continuation from 0.
     ``on_point`` sees every converged point and may stop the path (returns True).
+
+    With a ``checkpoint`` every converged point is saved before ``on_point`` sees it, and
+    the points a previous (interrupted) run saved there are handed to ``on_point`` first;
+    the path then goes on from the last of them: pressure steps with the step size and
+    secant predictor they would have had, or, once the path was on continuation, contique
+    in the direction of the last step (its increments restart from ``dx_max``, ``dp_max``).
     """
     s = settings
+    x_start = problem.get_x()
+    saved = checkpoint.load(problem.nfree) if checkpoint is not None else []
+
+    def record(pt: PathPoint) -> bool:
+        if checkpoint is not None:
+            checkpoint.save(pt)
+        return on_point(pt)
+
     run = PathRun()
-    if s.method in ("auto", "pressure"):
-        run = pressure_control(problem, p_end, solver, dp0=p_end / 20, dp_min=p_end / 400,
-                               dp_max=p_end / 8, tol=s.tol, max_steps=s.max_steps,
-                               maxiter=8, max_cutbacks=1 if s.method == "auto" else None,
-                               on_point=on_point)
-    if s.method == "arc-length" or (s.method == "auto" and run.status == "stalled"):
+    for pt in saved:
+        run.points.append(pt)
+        if on_point(pt):
+            run.status = "stopped"
+            return run
+    p0, dp0, prev = 0.0, p_end / 20, None
+    on_arc = s.method == "arc-length"
+    if saved:
+        last = saved[-1]
+        before = (saved[-2].pressure, saved[-2].x) if len(saved) > 1 else (0.0, x_start)
+        problem.set_x(last.x)
+        p0, prev = last.pressure, before
+        on_arc = on_arc or last.method == "arc-length"
+        step = last.pressure - before[0]
+        if step > 0:  # as pressure_control would go on: ×1.5 after an easy step
+            dp0 = min(step * (1.5 if last.iterations <= 5 else 1.0), p_end / 8)
+    if not on_arc:
+        more = pressure_control(problem, p_end, solver, p_start=p0, dp0=dp0,
+                                dp_min=p_end / 400, dp_max=p_end / 8, tol=s.tol,
+                                max_steps=max(s.max_steps - len(run.points), 1), maxiter=8,
+                                max_cutbacks=1 if s.method == "auto" else None,
+                                on_point=record, prev=prev)
+        run = _merge(run, more)
+    if s.method == "arc-length" or (s.method == "auto" and (on_arc or run.status == "stalled")):
         p_start = run.points[-1].pressure if run.points else 0.0
+        direction = None
         if run.points:
             problem.set_x(run.points[-1].x)
+            if on_arc and saved and len(run.points) == len(saved):  # resumed on continuation
+                a = run.points[-1]
+                b_p, b_x = (run.points[-2].pressure, run.points[-2].x) if len(run.points) > 1 \
+                    else (0.0, x_start)
+                direction = np.append(a.x - b_x, a.pressure - b_p)
         more = continuation(problem, p_start, solver, dx_max=s.dx_max, dp_max=s.dp_max,
                             chord=s.chord, max_steps=max(s.max_steps - len(run.points), 1),
-                            on_point=on_point)
+                            on_point=record, direction=direction)
         run = _merge(run, more)
     return run
 
 
 def simulate_cell(geometry: CellGeometry, settings: FESettings | None = None, *,
                   progress: Callable[[float, int], None] | None = None,
-                  n_cells: int = 1, tilt: float = 0.0) -> FEResult:
+                  n_cells: int = 1, tilt: float = 0.0,
+                  checkpoint: PathCheckpoint | None = None) -> FEResult:
     """Inflate a unit cell (or a module of cells in series) with FE and measure it like the
     reference paper.
 
@@ -308,6 +349,9 @@ def simulate_cell(geometry: CellGeometry, settings: FESettings | None = None, *,
         Chamber tilt β (rad, |β| < 80°) of a twisting strip's cells: the mesh is sheared in
         the strip plane (:func:`~multimorph.fe.cell_mesh`), clamped on its sheared end face.
         Needs a full model (``FESettings(half=False)``).
+    checkpoint : PathCheckpoint, optional
+        Save every converged point there and resume from the points an interrupted run
+        with the same key saved (:func:`trace_path`); ``stats["resumed_points"]``.
 
     Notes
     -----
@@ -343,7 +387,7 @@ def simulate_cell(geometry: CellGeometry, settings: FESettings | None = None, *,
     rec = _Recorder(mesh, problem, L, mu, p_max, s.max_volume_ratio, max_stretch, progress,
                     s.stop_after_limit)
     try:
-        run = trace_path(problem, solver, s, p_max / mu, rec.add)
+        run = trace_path(problem, solver, s, p_max / mu, rec.add, checkpoint=checkpoint)
     finally:
         solver.release()
     if len(rec.rows) < 2:
@@ -360,6 +404,7 @@ def simulate_cell(geometry: CellGeometry, settings: FESettings | None = None, *,
         "analyses": solver.analyses, "factorisations": solver.factorisations,
         "tangents_reused": run.tangents_reused, "chord_steps": run.chord_steps,
         "assembly_time": problem.stats.time, "wall_time": time.perf_counter() - t0,
+        "resumed_points": checkpoint.resumed if checkpoint is not None else 0,
         "settings": {k: (v if not isinstance(v, MeshDensity) else asdict(v))
                      for k, v in asdict(s).items()},
     }

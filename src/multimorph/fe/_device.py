@@ -30,6 +30,7 @@ import numpy as np
 from multimorph.device import Device
 from multimorph.errors import MultimorphError
 from multimorph.fe._cell import FESettings, path_end, trace_path
+from multimorph.fe._checkpoint import PathCheckpoint
 from multimorph.fe._deps import require
 from multimorph.fe._device_mesh import (
     FE_MODULE_KINDS,
@@ -278,7 +279,8 @@ class FEDeviceResult:
 
 
 def simulate_device(device: Device, settings: FESettings | None = None,
-                    progress: Callable[[float, int], None] | None = None) -> FEDeviceResult:
+                    progress: Callable[[float, int], None] | None = None, *,
+                    checkpoint: PathCheckpoint | None = None) -> FEDeviceResult:
     """Inflate a device (modules in series on one pressure line) with 3D FE and measure
     every module from node coordinates.
 
@@ -293,6 +295,8 @@ def simulate_device(device: Device, settings: FESettings | None = None,
         (default the smallest break stretch of the wall materials) to all walls.
     progress : callable, optional
         ``progress(pressure_Pa, n_points)`` after every converged point.
+    checkpoint : PathCheckpoint, optional
+        Save every converged point there; resume from an interrupted run's points.
 
     Returns
     -------
@@ -328,7 +332,7 @@ def simulate_device(device: Device, settings: FESettings | None = None,
     max_stretch = s.max_stretch if s.max_stretch is not None else min(breaks, default=None)
     rec = _DeviceRecorder(mesh, problem, L, mu, p_max, s, max_stretch, progress)
     try:
-        run = trace_path(problem, solver, s, p_max / mu, rec.add)
+        run = trace_path(problem, solver, s, p_max / mu, rec.add, checkpoint=checkpoint)
     finally:
         solver.release()
     if len(rec.rows) < 2:
@@ -343,6 +347,7 @@ def simulate_device(device: Device, settings: FESettings | None = None,
         "factorisations": solver.factorisations, "tangents_reused": run.tangents_reused,
         "chord_steps": run.chord_steps, "assembly_time": problem.stats.time,
         "wall_time": time.perf_counter() - t0,
+        "resumed_points": checkpoint.resumed if checkpoint is not None else 0,
         "p_max": p_max, "length_unit_m": L, "stress_unit_pa": mu,
         "settings": {k: (v if not isinstance(v, MeshDensity) else asdict(v))
                      for k, v in asdict(s).items()},

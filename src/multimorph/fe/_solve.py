@@ -115,7 +115,8 @@ def pressure_control(problem: PressureProblem, p_end: float, solver: LinearSolve
                      tol: float = 1e-8, maxiter: int = 10, max_steps: int = 500,
                      max_cutbacks: int | None = None,
                      on_point: Callable[[PathPoint], bool] | None = None,
-                     run: PathRun | None = None) -> PathRun:
+                     run: PathRun | None = None,
+                     prev: tuple[float, np.ndarray] | None = None) -> PathRun:
     """Ramp the pressure from the problem's current state to ``p_end`` with cutbacks.
 
     Steps grow ×1.5 after an easy step (≤ 4 iterations) and halve on failure; the state of
@@ -123,7 +124,8 @@ def pressure_control(problem: PressureProblem, p_end: float, solver: LinearSolve
     the displacement from the last two points. ``on_point`` is called for every converged
     point and may return True to stop. With ``max_cutbacks`` the ramp also counts as stalled
     after that many consecutive failures (hand over to continuation early instead of
-    halving the step down to ``dp_min``).
+    halving the step down to ``dp_min``). ``prev`` (pressure, x) is the converged point
+    before the current one, for the secant predictor of the first step (a resumed path).
 
     Returns
     -------
@@ -140,7 +142,6 @@ def pressure_control(problem: PressureProblem, p_end: float, solver: LinearSolve
     x = problem.get_x()
     problem.sync(x)
     p = p_start
-    prev: tuple[float, np.ndarray] | None = None
     steps = 0
     in_row = 0
     while p < p_end * (1 - 1e-12) and steps < max_steps:
@@ -383,7 +384,8 @@ def continuation(problem: PressureProblem, p_start: float, solver: LinearSolver,
                  dx_max: float, dp_max: float, max_steps: int = 200, tol: float = 1e-7,
                  maxiter: int = 8, on_point: Callable[[PathPoint], bool] | None = None,
                  run: PathRun | None = None, quiet: bool = True,
-                 overshoot: float = 1.25, chord: float = 1e-3) -> PathRun:
+                 overshoot: float = 1.25, chord: float = 1e-3,
+                 direction: np.ndarray | None = None) -> PathRun:
     """Arc-length-like continuation with contique from the problem's current state.
 
     contique (local parameterisation with switching control components) follows the path
@@ -411,6 +413,12 @@ def continuation(problem: PressureProblem, p_start: float, solver: LinearSolver,
         Reuse the previous iterate's tangent (a chord step, no new factorisation) once the
         residual fell below this fraction of the previous one (see :class:`_Bordered`);
         0 always assembles a fresh tangent.
+    direction : ndarray, optional
+        The increment (x, P) of the step that reached the current point (a resumed path):
+        the first step goes on the same way, controlled by its largest component relative
+        to the increment limits, as contique would pick it, with increments as large as
+        that step's (over ``overshoot``, within contique's bounds of 1e-6…10 times
+        ``dx_max``, ``dp_max``). Default: increasing pressure from ``dx_max``, ``dp_max``.
     """
     contique = require("contique")
     t0 = time.perf_counter()
@@ -420,12 +428,20 @@ def continuation(problem: PressureProblem, p_start: float, solver: LinearSolver,
     problem.sync(x0)
     _, g0 = problem.residual(x0, p_start)
     tol_abs = tol * float(np.linalg.norm(g0)) * max(abs(p_start), 10 * dp_max)
+    control0, scale = (-1, 1), 1.0
+    if direction is not None and np.all(np.isfinite(direction)) and np.any(direction):
+        scaled = np.abs(direction) / np.append(np.full(len(x0), dx_max), dp_max)
+        c = int(np.argmax(scaled))
+        control0 = (c, 1 if direction[c] > 0 else -1)
+        # the increments contique had grown to: the last step's, within its 10× bound
+        scale = float(np.clip(scaled[c] / overshoot, 1.0, 10.0))
     last_p = p_start
     sink = io.StringIO()
     gen = contique.solve(fun=cb.fun, jac=(cb.dfdx, cb.dfdl), x0=x0, lpf0=p_start,
-                         dxmax=dx_max, dlpfmax=dp_max, maxsteps=max_steps, maxiter=maxiter,
-                         tol=tol_abs, rebalance=True, solve=cb.solve, control0=(-1, 1),
-                         overshoot=overshoot)
+                         dxmax=dx_max * scale, dlpfmax=dp_max * scale, maxsteps=max_steps,
+                         maxiter=maxiter, tol=tol_abs, rebalance=True, solve=cb.solve,
+                         control0=control0, overshoot=overshoot, high=10.0 / scale,
+                         low=1e-6 / scale)
     first = True
     x_last = x0
     try:

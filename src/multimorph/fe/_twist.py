@@ -36,6 +36,7 @@ import numpy as np
 from multimorph.device import Module
 from multimorph.errors import MultimorphError
 from multimorph.fe._cell import FESettings, path_end, trace_path
+from multimorph.fe._checkpoint import PathCheckpoint
 from multimorph.fe._deps import require
 from multimorph.fe._linsolve import make_solver
 from multimorph.fe._measure import bend_and_twist, chamber_volume, largest_stretch
@@ -223,7 +224,8 @@ class FETwistResult:
 def simulate_twisting_module(module: Module, settings: FESettings | None = None, *,
                              p_max: float | None = None,
                              progress: Callable[[float, int], None] | None = None,
-                             tilt: float | None = None) -> FETwistResult:
+                             tilt: float | None = None,
+                             checkpoint: PathCheckpoint | None = None) -> FETwistResult:
     """Inflate a twisting module (strips around a shaft, clamped at y = 0) with 3D FE.
 
     Parameters
@@ -239,6 +241,8 @@ def simulate_twisting_module(module: Module, settings: FESettings | None = None,
         ``progress(pressure_Pa, n_points)`` after every converged point.
     tilt : float, optional
         Override the module's tilt β (rad); ``0.0`` runs the straight reference module.
+    checkpoint : PathCheckpoint, optional
+        Save every converged point there; resume from an interrupted run's points.
 
     Returns
     -------
@@ -272,7 +276,7 @@ def simulate_twisting_module(module: Module, settings: FESettings | None = None,
     beta = float(module.tilt if tilt is None else tilt)
     rec = _TwistRecorder(mesh, problem, L, mu, p_end, s, max_stretch, progress, beta)
     try:
-        run = trace_path(problem, solver, s, p_end / mu, rec.add)
+        run = trace_path(problem, solver, s, p_end / mu, rec.add, checkpoint=checkpoint)
     finally:
         solver.release()
     if len(rec.rows) < 2:
@@ -288,6 +292,7 @@ def simulate_twisting_module(module: Module, settings: FESettings | None = None,
         "assembly_time": problem.stats.time, "mesh_time": t_mesh,
         "wall_time": time.perf_counter() - t0, "p_max": p_end, "length_unit_m": L,
         "stress_unit_pa": mu, "tilt": beta,
+        "resumed_points": checkpoint.resumed if checkpoint is not None else 0,
         "settings": {k: (v if not isinstance(v, MeshDensity) else asdict(v))
                      for k, v in asdict(s).items()},
     }
