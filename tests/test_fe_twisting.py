@@ -265,6 +265,10 @@ def test_cli_fem_module(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None
         assert (out / f).exists() and f in info["files"]
     for f in ("curves.png", "snapshots.png"):
         assert (out / f).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    bad = CliRunner().invoke(app, ["fem", str(spec), "--module", "tw", "--wall-elements", "0",
+                                   "--out", str(tmp_path / "bad"), "--json"])
+    assert bad.exit_code == 2 and "--wall-elements" in bad.output
+    assert not (tmp_path / "bad").exists()
     bad = CliRunner().invoke(app, ["fem", str(spec), "--module", "nope", "--out",
                                    str(tmp_path / "bad"), "--json"])
     assert bad.exit_code == 2 and "--module" in bad.output and "nope" in bad.output

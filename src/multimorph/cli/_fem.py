@@ -67,6 +67,23 @@ def _resumable(ck: Any, quiet: bool) -> Iterator[None]:
                           f"({ck.discarded}); started afresh", highlight=False)
 
 
+def _density(mesh: str, size: float | None, wall_elements: int | None) -> Any:
+    """The mesh density of the options: the preset, an explicit in-plane size, and
+    ``--wall-elements`` (elements through every wall) over both."""
+    from dataclasses import replace
+
+    from multimorph.errors import SpecError
+    from multimorph.fe import resolve_density
+
+    dens = resolve_density(mesh, size)
+    if wall_elements is None:
+        return dens
+    if wall_elements < 1:
+        raise SpecError(f"--wall-elements: expected at least 1 element through each wall, "
+                        f"got {wall_elements}")
+    return replace(dens, wall_elements=int(wall_elements))
+
+
 def _resumed_note(stats: dict[str, Any], ck: Any) -> str:
     n = int(stats.get("resumed_points", 0))
     return f"; resumed from {n} saved points" if n else ""
@@ -81,6 +98,10 @@ def fem(
     element_size: Annotated[str | None, typer.Option(
         help="Explicit element edge length, e.g. '1 mm' (overrides the preset's size).")
                             ] = None,
+    wall_elements: Annotated[int | None, typer.Option(
+        "--wall-elements", help="Elements through the thickness of every wall (overrides "
+                                "the preset's 2, 3 or 4; 1 for a quick, stiffer look at a "
+                                "large device or twisting module).")] = None,
     pmax: Annotated[str | None, typer.Option(
         help="Highest pressure, e.g. '60 kPa' (default: the wall shear modulus).")] = None,
     method: Annotated[str, typer.Option(
@@ -141,7 +162,8 @@ def fem(
 
     with handle_errors(as_json):
         table = load_toml(spec)
-        options = {"mesh": mesh, "element_size": element_size, "pmax": pmax,
+        options = {"mesh": mesh, "element_size": element_size,
+                   "wall_elements": wall_elements, "pmax": pmax,
                    "method": method, "solver": solver, "full": full, "cells": cells,
                    "tilt": tilt, "module": module}
         if module is not None:
@@ -151,7 +173,8 @@ def fem(
             if cells != 1 or tilt is not None:
                 raise SpecError(f"--{'cells' if cells != 1 else 'tilt'}: applies to a cell "
                                 f"spec; with --module the module table gives them")
-            _fem_module(spec, table, module, mesh=mesh, element_size=element_size, pmax=pmax,
+            _fem_module(spec, table, module, mesh=mesh, element_size=element_size,
+                        wall_elements=wall_elements, pmax=pmax,
                         method=method, solver=solver, full=full, vtu=vtu, out=out,
                         compare=compare, as_json=as_json, options=options, restart=restart)
             return
@@ -162,7 +185,8 @@ def fem(
             if tilt is not None:
                 raise SpecError("--tilt: applies to a cell spec; FE devices take bending "
                                 "and stretching modules only")
-            _fem_device(spec, table, mesh=mesh, element_size=element_size, pmax=pmax,
+            _fem_device(spec, table, mesh=mesh, element_size=element_size,
+                        wall_elements=wall_elements, pmax=pmax,
                         method=method, solver=solver, full=full, vtu=vtu, out=out,
                         compare=compare, as_json=as_json, options=options, restart=restart)
             return
@@ -181,7 +205,7 @@ def fem(
                 raise SpecError(f"--tilt: expected an angle with 0 < |tilt| < "
                                 f"{math.degrees(MAX_TILT):.0f} deg, got {tilt!r}")
         # a tilted strip has no mirror plane: always the full model
-        settings = FESettings(mesh=mesh, element_size=size, half=not (full or beta),
+        settings = FESettings(mesh=_density(mesh, size, wall_elements), half=not (full or beta),
                               p_max=p_max, method=method, solver=solver)
         p_end = p_max if p_max is not None else geometry.mu
         folder = out if out is not None else Path("multimorph-out") / f"fem-{spec.stem}"
@@ -262,6 +286,7 @@ def fem(
 
 
 def _fem_device(spec: Path, table: dict[str, Any], *, mesh: str, element_size: str | None,
+                wall_elements: int | None = None,
                 pmax: str | None, method: str, solver: str, full: bool, vtu: bool,
                 out: Path | None, compare: bool, as_json: bool, device: Any = None,
                 options: dict[str, Any] | None = None, restart: bool = False) -> None:
@@ -279,7 +304,7 @@ def _fem_device(spec: Path, table: dict[str, Any], *, mesh: str, element_size: s
     fe_device_modules(device)  # refuse what FE cannot mesh before any work
     p_max = to_si(pmax, "Pa", field="--pmax") if pmax else device.pmax
     size = to_si(element_size, "m", field="--element-size") if element_size else None
-    settings = FESettings(mesh=mesh, element_size=size, half=not full, p_max=p_max,
+    settings = FESettings(mesh=_density(mesh, size, wall_elements), half=not full, p_max=p_max,
                           method=method, solver=solver)
     folder = out if out is not None else Path("multimorph-out") / f"fem-{spec.stem}"
     ck = _checkpoint(spec, folder, options or {}, restart)
@@ -368,6 +393,7 @@ def _fem_device(spec: Path, table: dict[str, Any], *, mesh: str, element_size: s
 
 def _fem_module(spec: Path, table: dict[str, Any], name: str, *, mesh: str,
                 element_size: str | None, pmax: str | None, method: str, solver: str,
+                wall_elements: int | None = None,
                 full: bool, vtu: bool, out: Path | None, compare: bool, as_json: bool,
                 options: dict[str, Any] | None = None, restart: bool = False) -> None:
     """``multimorph fem DEVICE.toml --module NAME``: one module of a device spec, clamped at
@@ -396,7 +422,8 @@ def _fem_module(spec: Path, table: dict[str, Any], name: str, *, mesh: str,
     if mod.kind in FE_MODULE_KINDS:
         one = Device((replace(mod, start=0.0, attach_to=None, branch="main", count=1,
                               radius=0.0),), name=f"{device.name}: {name}", pmax=device.pmax)
-        _fem_device(spec, table, mesh=mesh, element_size=element_size, pmax=pmax,
+        _fem_device(spec, table, mesh=mesh, element_size=element_size,
+                    wall_elements=wall_elements, pmax=pmax,
                     method=method, solver=solver, full=full, vtu=vtu, out=out,
                     compare=compare, as_json=as_json, device=one, options=options,
                     restart=restart)
@@ -406,7 +433,7 @@ def _fem_module(spec: Path, table: dict[str, Any], name: str, *, mesh: str,
                         f"{', '.join(FE_MODULE_KINDS)})")
     p_max = to_si(pmax, "Pa", field="--pmax") if pmax else device.pmax
     size = to_si(element_size, "m", field="--element-size") if element_size else None
-    settings = FESettings(mesh=mesh, element_size=size, half=False, p_max=p_max,
+    settings = FESettings(mesh=_density(mesh, size, wall_elements), half=False, p_max=p_max,
                           method=method, solver=solver)
     folder = out if out is not None else Path("multimorph-out") / f"fem-{spec.stem}-{name}"
     ck = _checkpoint(spec, folder, options or {}, restart)
