@@ -20,6 +20,14 @@ pytestmark = pytest.mark.slow
 MU = 1.0e5
 
 
+#: the small Gent cell of ``_cell`` as a spec for the CLI
+_CELL_SPEC = (
+    '[cell]\nlength = "10 mm"\nwidth = "8 mm"\nheight = "6 mm"\ntop_wall = "1 mm"\n'
+    'bottom_wall = "1.5 mm"\nside_wall = "1.5 mm"\nend_wall = "1.5 mm"\n'
+    '[cell.material]\nmodel = "gent"\nmu = "100 kPa"\njm = 30\n'
+    '[cell.bottom_material]\nmodel = "gent"\nmu = "1 MPa"\njm = 30\n')
+
+
 def _cell(model: str, **params: float) -> CellGeometry:
     """A small cell (10 × 8 × 6 mm, 1 mm top wall) with a 10× stiffer bottom layer."""
     wall = Material(model, {"mu": MU, **params})
@@ -83,11 +91,7 @@ def test_cli_fem_writes_outputs(tmp_path: Path) -> None:
 
     _register()
     spec = tmp_path / "cell.toml"
-    spec.write_text(
-        '[cell]\nlength = "10 mm"\nwidth = "8 mm"\nheight = "6 mm"\ntop_wall = "1 mm"\n'
-        'bottom_wall = "1.5 mm"\nside_wall = "1.5 mm"\nend_wall = "1.5 mm"\n'
-        '[cell.material]\nmodel = "gent"\nmu = "100 kPa"\njm = 30\n'
-        '[cell.bottom_material]\nmodel = "gent"\nmu = "1 MPa"\njm = 30\n')
+    spec.write_text(_CELL_SPEC)
     out = tmp_path / "out"
     res = CliRunner().invoke(app, ["fem", str(spec), "--element-size", "2 mm", "--pmax",
                                    "15 kPa", "--out", str(out), "--json"])
@@ -236,11 +240,7 @@ def test_cli_fem_interrupted_resumes(tmp_path: Path, monkeypatch: pytest.MonkeyP
 
     _register()
     spec = tmp_path / "cell.toml"
-    spec.write_text(
-        '[cell]\nlength = "10 mm"\nwidth = "8 mm"\nheight = "6 mm"\ntop_wall = "1 mm"\n'
-        'bottom_wall = "1.5 mm"\nside_wall = "1.5 mm"\nend_wall = "1.5 mm"\n'
-        '[cell.material]\nmodel = "gent"\nmu = "100 kPa"\njm = 30\n'
-        '[cell.bottom_material]\nmodel = "gent"\nmu = "1 MPa"\njm = 30\n')
+    spec.write_text(_CELL_SPEC)
     out = tmp_path / "out"
     args = ["fem", str(spec), "--element-size", "2 mm", "--pmax", "15 kPa", "--method",
             "pressure", "--out", str(out), "--json"]
@@ -272,3 +272,29 @@ def test_cli_fem_interrupted_resumes(tmp_path: Path, monkeypatch: pytest.MonkeyP
     monkeypatch.setattr(cli_fem, "_progress", real)
     res = CliRunner().invoke(app, [*args, "--restart"])
     assert res.exit_code == 0 and json.loads(res.output)["stats"]["resumed_points"] == 0
+
+
+def test_ctrl_c_inside_a_linear_solve_stops_continuation(monkeypatch: pytest.MonkeyPatch,
+                                                         ) -> None:
+    """contique wraps the linear solve in a bare ``except:`` (and iterates on NaN), which
+    would swallow Ctrl-C; a KeyboardInterrupt raised inside a solve during continuation
+    stops the run at once instead (no further solve)."""
+    from multimorph.fe._linsolve import LinearSolver
+
+    calls = {"n": 0, "after": 0}
+    real = LinearSolver.solve
+
+    def solve(self: LinearSolver, K: object, b: np.ndarray) -> np.ndarray:
+        calls["n"] += 1
+        if calls["n"] == 12:
+            raise KeyboardInterrupt
+        if calls["n"] > 12:
+            calls["after"] += 1
+        return real(self, K, b)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(LinearSolver, "solve", solve)
+    with pytest.raises(KeyboardInterrupt):
+        simulate_cell(_cell("gent", jm=30.0),
+                      FESettings(mesh=MeshDensity(1, length_fraction=1 / 5), p_max=0.6 * MU,
+                                 method="arc-length"))
+    assert calls["n"] == 12 and calls["after"] == 0

@@ -239,8 +239,11 @@ class _Bordered:
         self._from_converged = False
         self._solved: tuple[Any, ...] | None = None
         self.memo_hits = 0
+        self.interrupted = False
 
     def fun(self, x: np.ndarray, lpf: float, *_: Any) -> np.ndarray:
+        if self.interrupted:
+            raise KeyboardInterrupt
         if not (math.isfinite(lpf) and np.all(np.isfinite(x))):
             # a failed solve (contique turns it into NaN and iterates on): nothing to evaluate
             self._from_converged = False
@@ -358,7 +361,13 @@ class _Bordered:
             sol = memo[2]
             self.memo_hits += 1
         else:
-            sol = self.solver.solve(K, rhs)
+            try:
+                sol = self.solver.solve(K, rhs)
+            except KeyboardInterrupt:
+                # contique 1.1 wraps this call in a bare ``except:`` and iterates on NaN,
+                # which would swallow Ctrl-C: raise it again from the next residual call
+                self.interrupted = True
+                raise
             self._solved = (K, rhs, sol)
         a, z = sol[:, 0], sol[:, 1]
         den = d - e @ z
