@@ -280,10 +280,30 @@ def test_cli_fem_device_writes_its_files(tmp_path: Path, monkeypatch: pytest.Mon
     assert res.exit_code == 0, res.output
     info = json.loads(res.output)
     for f in ("summary.json", "curves.csv", "tip.csv", "curves.png", "snapshots.png",
-              "device.pvd", "device_0000.vtu"):
+              "device.step", "device.stl", "device.pvd", "device_0000.vtu"):
         assert f in info["files"] and (out / f).exists(), f
     for f in ("curves.png", "snapshots.png"):
         assert (out / f).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    # the solid (STEP and STL, mm): the boxes of the two modules minus their four chambers,
+    # one volume; read back with gmsh, its volume is exact
+    import gmsh
+
+    gmsh.initialize(interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        vols = gmsh.model.occ.importShapes(str(out / "device.step"))
+        gmsh.model.occ.synchronize()
+        assert len(vols) == 1
+        vol = gmsh.model.occ.getMass(*vols[0])
+    finally:
+        gmsh.finalize()
+    seal, bend = (10 * 20 * 6) - 2 * (8 * 8 * 4.4), (8 * 20 * 6) - 2 * (6 * 8 * 3.7)
+    assert vol == pytest.approx(seal + bend, rel=1e-9)
+    pts = np.array([[float(v) for v in line.split()[1:4]]
+                    for line in (out / "device.stl").read_text().splitlines()
+                    if line.strip().startswith("vertex")])
+    assert np.allclose(pts.min(axis=0), [0, 0, 0], atol=1e-9)
+    assert np.allclose(pts.max(axis=0), [10, 40, 6], atol=1e-9)
     with open(out / "curves.csv") as fh:
         rows = list(csv.DictReader(fh))
     last = {r["module"]: r for r in rows if float(r["pressure_pa"]) == 10e3}

@@ -297,6 +297,8 @@ def _fem_device(spec: Path, table: dict[str, Any], *, mesh: str, element_size: s
     from multimorph.device import device_from_spec
     from multimorph.fe import FESettings, compare_device, fe_device_modules, simulate_device
     from multimorph.fe._device import plot_device, write_device_vtu
+    from multimorph.fe._device_mesh import device_boxes
+    from multimorph.fe._output import export_box_solid
     from multimorph.io import atomic_output_dir, write_json
     from multimorph.units import to_si
 
@@ -342,6 +344,11 @@ def _fem_device(spec: Path, table: dict[str, Any], *, mesh: str, element_size: s
             write_json(tmp / "comparison.json", comparison)
             files.append("comparison.json")
         files += plot_device(result, tmp)
+        outer, inner = device_boxes(device)
+        edge = min(min(b[3:]) for b in outer + inner) / 2
+        for name in ("device.step", "device.stl"):
+            export_box_solid(outer, inner, tmp / name, edge)
+            files.append(name)
         if vtu:
             files += write_device_vtu(result, tmp)
         info["files"] = files

@@ -15,6 +15,7 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -32,7 +33,7 @@ from multimorph.fe._mesh import (
 )
 from multimorph.materials import Material
 
-__all__ = ["FE_MODULE_KINDS", "DeviceMesh", "device_mesh", "fe_device_modules"]
+__all__ = ["FE_MODULE_KINDS", "DeviceMesh", "device_boxes", "device_mesh", "fe_device_modules"]
 
 
 #: Module kinds that the structured device mesh can hold.
@@ -173,6 +174,45 @@ def _graded(breaks: list[float], walls: list[tuple[float, float]], edge: float, 
     return np.concatenate(out)
 
 
+def _layout(mods: tuple[Module, ...]) -> tuple[float, float, list[dict[str, Any]]]:
+    """Common box W × H and, per module, its outer box, chamber box and bottom layer in
+    global x, z (every cross-section centred on the axis x = W/2, z = H/2; a module turned
+    by 180° has its stiff layer on top)."""
+    W = max(m.cell.width for m in mods)
+    H = max(m.cell.height for m in mods)
+    geo = []
+    for m in mods:
+        g = m.cell
+        zb = H / 2 - g.height / 2
+        lower = g.ht if _flipped(m) else g.hb
+        z0 = zb + lower
+        geo.append({"x0": W / 2 - g.width / 2, "zb": zb, "zt": zb + g.height, "z0": z0,
+                    "z1": z0 + g.hc, "xc": W / 2 - g.width / 2 + g.ws,
+                    "bot": (zb + g.height - g.hb, zb + g.height) if _flipped(m)
+                    else (zb, zb + g.hb)})
+    return W, H, geo
+
+
+def device_boxes(device: Device) -> tuple[list[tuple[float, ...]], list[tuple[float, ...]]]:
+    """The device solid as boxes (m, the FE mesh's frame: y along the axis from the
+    clamped end): one outer box per module and one box per chamber, each
+    ``(x, y, z, dx, dy, dz)``. The solid is the union of the outer boxes minus the
+    chambers."""
+    mods = fe_device_modules(device)
+    W, _, geo = _layout(mods)
+    outer, inner = [], []
+    y0 = 0.0
+    for m, q in zip(mods, geo, strict=True):
+        g = m.cell
+        outer.append((q["x0"], y0, q["zb"], W - 2 * q["x0"], m.n_cells * g.d,
+                      q["zt"] - q["zb"]))
+        for k in range(m.n_cells):
+            inner.append((q["xc"], y0 + k * g.d + g.df, q["z0"], W - 2 * q["xc"],
+                          g.d - 2 * g.df, q["z1"] - q["z0"]))
+        y0 += m.n_cells * g.d
+    return outer, inner
+
+
 def device_mesh(device: Device, mesh: str | MeshDensity = "coarse", *,
                 element_size: float | None = None, half: bool = True) -> DeviceMesh:
     """Mesh a device's modules in series with one structured hexahedral grid.
@@ -196,20 +236,8 @@ def device_mesh(device: Device, mesh: str | MeshDensity = "coarse", *,
     mods = fe_device_modules(device)
     dens = resolve_density(mesh, element_size)
     n = dens.wall_elements
-    W = max(m.cell.width for m in mods)
-    H = max(m.cell.height for m in mods)
+    W, H, geo = _layout(mods)
     edge = min(dens.edge(m.cell) for m in mods)
-    # per module: outer box, chamber box, bottom layer (global x, z)
-    geo = []
-    for m in mods:
-        g = m.cell
-        zb = H / 2 - g.height / 2
-        lower = g.ht if _flipped(m) else g.hb
-        z0 = zb + lower
-        geo.append({"x0": W / 2 - g.width / 2, "zb": zb, "zt": zb + g.height, "z0": z0,
-                    "z1": z0 + g.hc, "xc": W / 2 - g.width / 2 + g.ws,
-                    "bot": (zb + g.height - g.hb, zb + g.height) if _flipped(m)
-                    else (zb, zb + g.hb)})
     xb = sorted({v for q in geo for v in (q["x0"], q["xc"])} | {W / 2})
     xh = _graded(xb, [(q["x0"], q["xc"]) for q in geo], edge, n)
     xs = xh if half else np.concatenate([xh, (W - xh[::-1])[1:]])

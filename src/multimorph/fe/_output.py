@@ -23,8 +23,8 @@ from multimorph.fe._mesh import REGION_NAMES
 from multimorph.geometry import CellGeometry
 from multimorph.io import write_json
 
-__all__ = ["export_cell_solid", "plot_hex_snapshots", "plot_path_panels", "summary",
-           "write_fe_outputs"]
+__all__ = ["export_box_solid", "export_cell_solid", "plot_hex_snapshots", "plot_path_panels",
+           "summary", "write_fe_outputs"]
 
 _CSV_COLUMNS = [
     ("pressure_pa", lambda p: p.pressure),
@@ -284,28 +284,45 @@ def export_cell_solid(geometry: CellGeometry, path: Path, n_cells: int = 1,
     """Write the cell solid (box minus chamber), or ``n_cells`` of them in series, as STEP or
     STL (by suffix) with gmsh OCC; ``tilt`` β shears it in the strip plane as the FE mesh
     (y' = y + (x − w/2) tan β, see :func:`~multimorph.fe.cell_mesh`)."""
-    gmsh = require("gmsh")
     g = geometry
+    outer = [(0.0, 0.0, 0.0, g.width, n_cells * g.length, g.height)]
+    inner = [(g.ws, k * g.length + g.df, g.hb, g.wc, g.dc, g.hc) for k in range(n_cells)]
+    # affine map, row-major 3 × 4: y' = y + k x − k w/2
+    shear = None
+    if tilt:
+        k = math.tan(tilt)
+        shear = [1, 0, 0, 0, k, 1, 0, -k * 0.5 * g.width, 0, 0, 1, 0]
+    export_box_solid(outer, inner, path, min(g.ht, g.ws, g.df, g.hb), affine=shear)
+
+
+def export_box_solid(outer: Sequence[Sequence[float]], inner: Sequence[Sequence[float]],
+                     path: Path, stl_size: float, *,
+                     affine: Sequence[float] | None = None) -> None:
+    """Write the union of the ``outer`` boxes minus the ``inner`` ones (each ``(x, y, z,
+    dx, dy, dz)`` in m) as STEP or STL (by suffix, CAD in mm) with gmsh OCC; ``affine`` is
+    an optional row-major 3 × 4 map (m) applied to the solid; ``stl_size`` (m) is the
+    largest STL facet edge."""
+    gmsh = require("gmsh")
     initialised = gmsh.isInitialized()
     if not initialised:
         gmsh.initialize(interruptible=False)
     try:
         gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add("cell")
+        gmsh.model.add("solid")
         occ = gmsh.model.occ
         s = 1e3  # CAD in mm
-        outer = occ.addBox(0, 0, 0, g.width * s, n_cells * g.length * s, g.height * s)
-        inner = [occ.addBox(g.ws * s, (k * g.length + g.df) * s, g.hb * s, g.wc * s,
-                            g.dc * s, g.hc * s) for k in range(n_cells)]
-        solid, _ = occ.cut([(3, outer)], [(3, t) for t in inner])
-        if tilt:
-            k = math.tan(tilt)
-            # affine map, row-major 3 × 4: y' = y + k x − k w/2 (mm)
-            occ.affineTransform(solid, [1, 0, 0, 0, k, 1, 0, -k * 0.5 * g.width * s,
-                                        0, 0, 1, 0])
+        boxes = [(3, occ.addBox(*(v * s for v in b))) for b in outer]
+        if len(boxes) > 1:
+            boxes, _ = occ.fuse(boxes[:1], boxes[1:])
+        holes = [(3, occ.addBox(*(v * s for v in b))) for b in inner]
+        solid, _ = occ.cut(boxes, holes) if holes else (boxes, None)
+        if affine is not None:
+            a = list(affine)
+            occ.affineTransform(solid, [*a[0:3], a[3] * s, *a[4:7], a[7] * s,
+                                        *a[8:11], a[11] * s])
         occ.synchronize()
         if Path(path).suffix.lower() == ".stl":
-            gmsh.option.setNumber("Mesh.MeshSizeMax", min(g.ht, g.ws, g.df, g.hb) * s)
+            gmsh.option.setNumber("Mesh.MeshSizeMax", stl_size * s)
             gmsh.model.mesh.generate(2)
         with _quiet_stdout():
             gmsh.write(str(path))
