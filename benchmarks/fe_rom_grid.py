@@ -13,6 +13,10 @@ the top wall's half-chord wc/2. The reduced model holds that corner in place (it
 bulge between fixed ends), so a large lean is a mode the ROM does not have.
 
     python benchmarks/fe_rom_grid.py [--mesh coarse] [--out fe_rom_grid.json]
+
+Resumable: the out file is rewritten (atomically) after every design, and a rerun with the
+same settings takes the designs it already holds from it instead of running their FE again
+(designs that failed are run again; ``--fresh`` ignores the file).
 """
 
 from __future__ import annotations
@@ -20,7 +24,9 @@ from __future__ import annotations
 import argparse
 import itertools
 import json
+import os
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -61,8 +67,23 @@ def main() -> None:
     ap.add_argument("--rom-pmax", type=float, default=2.0, help="ROM p_max / μ")
     ap.add_argument("--max-volume-ratio", type=float, default=10.0)
     ap.add_argument("--out", default="fe_rom_grid.json")
+    ap.add_argument("--fresh", action="store_true", help="ignore the designs in --out")
     args = ap.parse_args()
-    rows = []
+    rows: list[dict[str, object]] = []
+    setup = {"mesh": args.mesh, "pmax": args.pmax, "rom_pmax": args.rom_pmax,
+             "max_volume_ratio": args.max_volume_ratio}
+    out = Path(args.out)
+    done: dict[tuple[float, float, float], dict[str, object]] = {}
+    if out.exists() and not args.fresh:
+        for r in json.loads(out.read_text()):
+            if r.get("settings") == setup and "error" not in r:
+                done[(r["ht"], r["ws"], r["df"])] = r
+
+    def save() -> None:
+        tmp = out.with_name(f".{out.name}.tmp")
+        tmp.write_text(json.dumps(rows, indent=1))
+        os.replace(tmp, out)
+
     print(f"{'ht':>5} {'ws':>5} {'df':>5} | {'Pc rom':>7} {'Pc fe':>7} {'rel':>7} | "
           f"{'Ph rom':>7} {'Ph fe':>7} {'rel':>7} | {'κ rel':>6} {'lean':>6} {'FE s':>6}")
     t0 = time.perf_counter()
@@ -70,10 +91,18 @@ def main() -> None:
 
     cells = designs()
     roms = simulate_cells(cells, args.rom_pmax * MU)
-    print(f"ROM: {len(cells)} designs in {time.perf_counter() - t0:.0f} s", flush=True)
+    print(f"ROM: {len(cells)} designs in {time.perf_counter() - t0:.0f} s"
+          + (f"; {len(done)} FE designs from {out}" if done else ""), flush=True)
     settings = FESettings(mesh=args.mesh, p_max=args.pmax * MU,
                           max_volume_ratio=args.max_volume_ratio)
     for g, rom in zip(cells, roms, strict=True):
+        if (g.ht, g.ws, g.df) in done:
+            row = done[(g.ht, g.ws, g.df)]
+            rows.append(row)
+            cp, hp = row["critical_pressure"], row["hardening_pressure"]
+            print(f"{g.ht * 1e3:5.2f} {g.ws * 1e3:5.2f} {g.df * 1e3:5.2f} | Pc rel "
+                  f"{cp['rel']}, Ph rel {hp['rel']} (done before)", flush=True)
+            continue
         try:
             if isinstance(rom, Exception):
                 raise rom
@@ -86,7 +115,9 @@ def main() -> None:
                           fe_lean_at_pc=corner_lean(fe, g))
         except Exception as exc:  # keep going; the table says which design failed
             print(f"{g.ht * 1e3:5.2f} {g.ws * 1e3:5.2f} {g.df * 1e3:5.2f} | failed: {exc}")
-            rows.append({"ht": g.ht, "ws": g.ws, "df": g.df, "error": str(exc)})
+            rows.append({"ht": g.ht, "ws": g.ws, "df": g.df, "error": str(exc),
+                         "settings": setup})
+            save()
             continue
 
         def f(v: float | None, scale: float = 1.0) -> str:
@@ -97,15 +128,15 @@ def main() -> None:
               f"{f(c.ph_rom, MU)} {f(c.ph_fe, MU)} {f(c.ph_rel)} | "
               f"{f(c.kappa_rel_max)[1:]} {f(c.meta['fe_lean_at_pc'])[1:]} "
               f"{c.meta['fe_time']:6.1f}", flush=True)
-        rows.append({"ht": g.ht, "ws": g.ws, "df": g.df, **c.to_dict()})
+        rows.append({"ht": g.ht, "ws": g.ws, "df": g.df, **c.to_dict(), "settings": setup})
+        save()
     pc = np.array([r["critical_pressure"]["rel"] for r in rows
                    if "critical_pressure" in r and r["critical_pressure"]["rel"] is not None])
     if len(pc):
         print(f"Pc: {len(pc)} designs, median |rel| {np.median(np.abs(pc)):.3f}, "
               f"max |rel| {np.max(np.abs(pc)):.3f}, within 15 %: {np.sum(np.abs(pc) <= 0.15)}")
     print(f"total {time.perf_counter() - t0:.0f} s")
-    with open(args.out, "w") as fh:
-        json.dump(rows, fh, indent=1)
+    save()
 
 
 if __name__ == "__main__":
