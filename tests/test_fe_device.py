@@ -319,6 +319,6 @@ def test_cli_fem_device_writes_its_files(tmp_path: Path, monkeypatch: pytest.Mon
         x, y, z = fin["peak_location_m"]
         assert start < y < start + length and 0 < x and 0 < z < 6e-3
         assert fin["peak_region"] in ("wall", "bottom layer")
-        assert fin["peak_stretch"] == pytest.approx(float(last[name]["peak_stretch"]),
-                                                    rel=1e-6)
+        # the walls stretch more than the centroid line: the peak exceeds the mean stretch
+        assert fin["peak_stretch"] > float(last[name]["axial_stretch"]) > 1.0
         start += length

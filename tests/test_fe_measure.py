@@ -87,3 +87,15 @@ def test_largest_stretch_matches_an_eigen_solver_including_repeated_eigenvalues(
     ref = np.sqrt(np.linalg.eigvalsh(C)[..., -1])
     np.testing.assert_allclose(lam, ref, rtol=1e-8)
     assert lam[0, :4] == pytest.approx([1.0, 2.0, 1.5, 1.3], rel=1e-8)
+
+
+def test_peak_element_over_all_and_over_a_subset() -> None:
+    """The element of the largest stretch, over all elements and over a subset (a device
+    module's), is the brute-force one."""
+    from multimorph.fe._measure import peak_element
+
+    ev = np.random.default_rng(3).uniform(1.0, 2.0, size=(8, 50))
+    assert peak_element(ev) == int(np.argmax(ev.max(axis=0)))
+    among = np.arange(0, 50, 7)
+    best = max(among, key=lambda j: ev[:, j].max())
+    assert peak_element(ev, among) == best

@@ -25,6 +25,7 @@ from multimorph.fe._measure import (
     circle_fit_curvature,
     largest_stretch,
     line_stretch,
+    peak_element,
     strip_strain,
 )
 from multimorph.fe._mesh import BOTTOM, WALL, CellMesh, MeshDensity, cell_mesh
@@ -197,7 +198,7 @@ class _Recorder:
         vol = chamber_volume(x, m.chamber_faces, mirror_x=g.width / 2 if m.half else None)
         F = self.problem.deformation_gradient()
         ev = largest_stretch(F)  # (q, cells)
-        cell = int(np.unravel_index(np.argmax(ev), ev.shape)[1])
+        cell = peak_element(ev)
         lam = float(ev.max())
         cs = ev.mean(axis=0)
         loc = m.points[m.cells[cell]].mean(axis=0)
@@ -276,7 +277,8 @@ def trace_path(problem: PressureProblem, solver: LinearSolver, settings: FESetti
     the points a previous (interrupted) run saved there are handed to ``on_point`` first;
     the path then goes on from the last of them: pressure steps with the step size and
     secant predictor they would have had, or, once the path was on continuation, contique
-    in the direction of the last step (its increments restart from ``dx_max``, ``dp_max``).
+    in the direction of the last step and with increments as large as its (contique's
+    step-control history is not kept, so the points that follow may differ).
     """
     s = settings
     x_start = problem.get_x()

@@ -40,8 +40,15 @@ from multimorph.fe._device_mesh import (
     fe_device_modules,
 )
 from multimorph.fe._linsolve import make_solver
-from multimorph.fe._measure import _kabsch, bend_and_twist, chamber_volume, largest_stretch
-from multimorph.fe._mesh import REGION_NAMES, MeshDensity
+from multimorph.fe._measure import (
+    _kabsch,
+    bend_and_twist,
+    chamber_volume,
+    largest_stretch,
+    peak_element,
+    peak_summary,
+)
+from multimorph.fe._mesh import MeshDensity
 from multimorph.fe._problem import PressureProblem
 from multimorph.fe._solve import PathPoint
 from multimorph.response import EquilibriumPath, Response, build_response
@@ -118,13 +125,11 @@ class _DeviceRecorder:
                                     mirror_x=self.mirror_x)
         F = self.problem.deformation_gradient()
         ev = largest_stretch(F)  # (q, cells)
-        cell_peak = ev.max(axis=0)
         where = np.zeros((k, 3))
         region = np.zeros(k, dtype=int)
         for i in range(k):
-            own = np.flatnonzero(m.module == i)
-            j = int(own[np.argmax(cell_peak[own])])
-            peak[i] = float(cell_peak[j])
+            j = peak_element(ev, np.flatnonzero(m.module == i))
+            peak[i] = float(ev[:, j].max())
             where[i] = m.points[m.cells[j]].mean(axis=0)  # reference centroid
             region[i] = int(m.region[j])
         tip_bend = _section_motion(m.points, x, m.start_sections[0], m.end_sections[-1],
@@ -257,7 +262,7 @@ class FEDeviceResult:
                 "at_max_pressure": {"pressure_pa": at["pressure"],
                                     "bend_angle_deg": math.degrees(at["bend_angle"]),
                                     "axial_stretch": at["axial_stretch"]},
-                "final": _peak_at_end(p),
+                "final": {"pressure_pa": float(p.pressure[-1]), **peak_summary(p)},
             }
             if paths:
                 mods[m.name]["path"] = {
@@ -365,16 +370,6 @@ def simulate_device(device: Device, settings: FESettings | None = None,
         tip=np.array([r["tip"] for r in rows]),
         tip_angle=np.array([r["tip_angle"] for r in rows]),
         displacements=np.array(rec.u), stretch=np.array(rec.cell_stretch), stats=stats)
-
-
-def _peak_at_end(path: EquilibriumPath) -> dict[str, Any]:
-    """The last point's largest principal stretch, where it is (reference centroid of its
-    element, m) and that element's region."""
-    reg = int(path.extra["peak_region"][-1])
-    return {"pressure_pa": float(path.pressure[-1]),
-            "peak_stretch": float(path.peak_stretch[-1]),
-            "peak_location_m": [float(v) for v in path.extra["peak_location"][-1]],
-            "peak_region": REGION_NAMES[reg]}
 
 
 def _rel(a: float | None, b: float | None) -> float | None:

@@ -7,11 +7,14 @@ and returns plain numbers, so it works for FE states and for tests with syntheti
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
+from multimorph.fe._mesh import REGION_NAMES
+
 __all__ = ["StripStrain", "bend_and_twist", "chamber_volume", "circle_fit_curvature",
-           "line_stretch", "peak_stretch", "strip_strain"]
+           "line_stretch", "peak_element", "peak_stretch", "peak_summary", "strip_strain"]
 
 # 2×2 Gauss points on [0, 1]² with weights 1/4
 _G = 0.5 + np.array([-1.0, 1.0]) / (2.0 * np.sqrt(3.0))
@@ -150,6 +153,23 @@ def peak_stretch(F: np.ndarray) -> tuple[float, int, int]:
     ev = largest_stretch(F)
     q, c = np.unravel_index(np.argmax(ev), ev.shape)
     return float(ev[q, c]), int(q), int(c)
+
+
+def peak_element(ev: np.ndarray, among: np.ndarray | None = None) -> int:
+    """The element that carries the largest principal stretch ``ev`` (q, cells), over all
+    elements or over the element indices ``among``."""
+    cell_peak = ev.max(axis=0)
+    if among is None:
+        return int(np.argmax(cell_peak))
+    return int(among[np.argmax(cell_peak[among])])
+
+
+def peak_summary(path: Any) -> dict[str, Any]:
+    """A path's last largest principal stretch, where it is (reference centroid of its
+    element, m: ``extra["peak_location"]``) and that element's region, for JSON."""
+    return {"peak_stretch": float(path.peak_stretch[-1]),
+            "peak_location_m": [float(v) for v in path.extra["peak_location"][-1]],
+            "peak_region": REGION_NAMES[int(path.extra["peak_region"][-1])]}
 
 
 @dataclass(frozen=True)

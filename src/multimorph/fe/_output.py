@@ -19,7 +19,7 @@ import numpy as np
 
 from multimorph.fe._cell import FEResult
 from multimorph.fe._deps import require
-from multimorph.fe._mesh import REGION_NAMES
+from multimorph.fe._measure import peak_summary
 from multimorph.geometry import CellGeometry
 from multimorph.io import write_json
 
@@ -59,9 +59,7 @@ def summary(result: FEResult) -> dict[str, Any]:
             "bend_angle_deg": float(np.degrees(p.extra["bend_angle"][-1])),
             "volume_ratio": float(p.extra["volume_ratio"][-1]),
             "axial_stretch": float(p.axial_stretch[-1]),
-            "peak_stretch": float(p.peak_stretch[-1]),
-            "peak_location_m": [float(v) for v in p.extra["peak_location"][-1]],
-            "peak_region": REGION_NAMES[int(p.extra["peak_region"][-1])],
+            **peak_summary(p),
             **strip,
         },
         "max_pressure_pa": float(np.max(p.pressure)),

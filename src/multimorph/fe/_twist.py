@@ -39,8 +39,14 @@ from multimorph.fe._cell import FESettings, path_end, trace_path
 from multimorph.fe._checkpoint import PathCheckpoint
 from multimorph.fe._deps import require
 from multimorph.fe._linsolve import make_solver
-from multimorph.fe._measure import bend_and_twist, chamber_volume, largest_stretch
-from multimorph.fe._mesh import REGION_NAMES, MeshDensity
+from multimorph.fe._measure import (
+    bend_and_twist,
+    chamber_volume,
+    largest_stretch,
+    peak_element,
+    peak_summary,
+)
+from multimorph.fe._mesh import MeshDensity
 from multimorph.fe._problem import PressureProblem
 from multimorph.fe._solve import PathPoint
 from multimorph.fe._twist_mesh import TwistMesh, twisting_module_mesh
@@ -90,7 +96,7 @@ class _TwistRecorder:
         vol = chamber_volume(x, m.chamber_faces)
         F = self.problem.deformation_gradient()
         ev = largest_stretch(F)  # (q, cells)
-        cell = int(np.unravel_index(np.argmax(ev), ev.shape)[1])
+        cell = peak_element(ev)
         self.rows.append({
             "pressure": pt.pressure * self.mu, "twist_angle": twist, "bend_angle": bend,
             "axial_stretch": 1.0 + uy / m.length, "volume": vol,
@@ -203,11 +209,7 @@ class FETwistResult:
                       "twist_rate_rad_per_m": float(self.twist_angle[-1] / m.length),
                       "axial_stretch": float(self.axial_stretch[-1]),
                       "volume_ratio": float(r.path.extra["volume_ratio"][-1]),
-                      "peak_stretch": float(r.path.peak_stretch[-1]),
-                      "peak_location_m": [float(v) for v in
-                                          r.path.extra["peak_location"][-1]],
-                      "peak_region": REGION_NAMES[int(r.path.extra["peak_region"][-1])],
-                      },
+                      **peak_summary(r.path)},
             "stats": self.stats,
         }
         if paths:
