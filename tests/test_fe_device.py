@@ -25,6 +25,7 @@ from multimorph.fe import (
     chamber_volume,
     compare_device,
     device_mesh,
+    fe_device_modules,
     simulate_cell,
     simulate_device,
 )
@@ -211,12 +212,103 @@ def test_unsupported_devices_are_refused(change: dict, field: str) -> None:
         device_mesh(Device((base, tip)))
 
 
-def test_parallel_branches_are_refused() -> None:
+def _fingers_on(trunk: Module, count: int = 2, radius: float = 5e-3) -> Device:
+    finger = Module("finger", "bending", _bend_cell(), branch="f", attach_to=trunk.name,
+                    count=count, radius=radius)
+    return Device((trunk, finger))
+
+
+def test_branches_that_fe_cannot_hold_are_refused() -> None:
     g = _bend_cell()
-    base = Module("base", "bending", g, n_cells=2)
-    finger = Module("finger", "bending", g, branch="f", attach_to="base")
-    with pytest.raises(SpecError, match=r"module 'finger'\.attach_to.*FE devices support"):
-        simulate_device(Device((base, finger)))
+    fingers = _fingers_on(Module("base", "bending", g, n_cells=2)).modules
+    tip = Module("tip", "bending", g, branch="t", attach_to="finger")
+    with pytest.raises(SpecError, match=r"module 'tip'\.attach_to: 'finger' has 2 copies"):
+        simulate_device(Device((*fingers, tip)))
+    loose = Module("loose", "bending", g, branch="l")  # a second clamped branch
+    with pytest.raises(SpecError, match=r"2 clamped branches \(l, main\)"):
+        device_mesh(Device((*fingers, loose)))
+    with pytest.raises(SpecError, match="single series"):
+        fe_device_modules(Device(fingers))
+
+
+def test_mesh_of_parallel_fingers_places_them_as_the_reduced_model() -> None:
+    """Copies j = 0, 1, 2 start at the parent's end section, turned by 120° j about its axis
+    and ``radius`` out along the turned z (the reduced model's placement); each copy is the
+    series grid of its branch, moved rigidly; one hub ties the parent's end section and the
+    copies' start sections, its two extra nodes in no element."""
+    from multimorph.device import simulate_device as rom_device
+
+    trunk = Module("trunk", "bending", _bend_cell(), n_cells=2)
+    dev = _fingers_on(trunk, count=3, radius=6e-3)
+    m = device_mesh(dev, DENS)
+    one = device_mesh(Device((Module("finger", "bending", _bend_cell()),)), DENS, half=False)
+    assert [e.name for e in m.modules] == ["trunk", "finger#0", "finger#1", "finger#2"]
+    assert m.source == ("trunk", "finger", "finger", "finger") and not m.half
+    assert len(m.cells) == len(device_mesh(Device((trunk,)), DENS, half=False).cells) + 3 * len(
+        one.cells)
+    rom = rom_device(dev, 1.0).shape(0.0)  # undeformed centre lines, ROM frame
+    axis = np.array([m.width / 2, 0.0, m.height / 2])  # the ROM's origin in the mesh frame
+    end = m.frames[0][0] + np.array([0.0, trunk.length, 0.0])
+    (h,) = m.hubs
+    assert np.allclose(m.points[h.center], end) and h.parent == 0 and h.children == (1, 2, 3)
+    assert h.rotation not in m.cells and h.center not in m.cells
+    for j in range(3):
+        o, Q = m.frames[1 + j]
+        assert np.allclose(Q @ Q.T, np.eye(3)) and np.linalg.det(Q) == pytest.approx(1.0)
+        assert np.allclose(o, axis + rom[f"finger#{j}"][0], atol=1e-12)  # start on the ROM
+        assert np.allclose(o + Q[:, 1] * 10e-3, axis + rom[f"finger#{j}"][-1], atol=1e-12)
+        # the copy is the standalone grid moved rigidly
+        c = np.flatnonzero(m.module == 1 + j)
+        d = np.linalg.norm(m.points[m.cells[c]] - m.points[m.cells[c]].mean(1, keepdims=True),
+                           axis=2)
+        d1 = np.linalg.norm(one.points[one.cells] - one.points[one.cells].mean(1, keepdims=True),
+                            axis=2)
+        assert np.allclose(np.sort(d.ravel()), np.sort(d1.ravel()))
+        assert set(m.start_sections[1 + j]) <= set(h.points)
+        faces = m.chamber_faces[m.face_module == 1 + j]
+        g = _bend_cell()
+        assert chamber_volume(m.points, faces) == pytest.approx(g.wc * g.hc * g.dc, rel=1e-12)
+    assert set(m.end_sections[0]) <= set(h.points)
+    assert m.clamped.sum() == len(m.start_sections[0])  # only the trunk's base
+
+
+def test_fingers_on_a_bending_trunk_bend_as_clamped_fingers() -> None:
+    """Two fingers on the end of a soft bending trunk, on one pressure line. The hub is
+    rigid, so (follower pressure being objective) each finger bends relative to its base
+    exactly as the same finger clamped alone, however the trunk carries it: the copies
+    agree with each other and with the lone finger, the hub turns with the trunk's end
+    section, and the tied nodes keep their distances."""
+    trunk = Module("trunk", "bending", _bend_cell(), n_cells=1)
+    dev = _fingers_on(trunk)
+    s = FESettings(mesh=DENS, p_max=0.4 * MU, half=False)
+    fe = simulate_device(dev, s)
+    alone = simulate_device(Device((Module("finger", "bending", _bend_cell()),)), s)
+    a0, a1 = (fe.responses[f"finger#{j}"].path.extra["bend_angle"] for j in (0, 1))
+    P = fe.pressure
+    assert np.allclose(a0, a1, rtol=1e-6, atol=1e-9)
+    ref = alone.responses["finger"].path
+    inside = ref.pressure <= P[-1]
+    assert inside.sum() >= 5 and ref.extra["bend_angle"][inside][-1] > 0.3  # > 17°
+    # the two paths sample different pressures; linear interpolation on this steepening
+    # curve costs up to ~0.5 % (the copies, sampled alike, agree to 1e-6 above)
+    got = np.interp(ref.pressure[inside], P, a0)
+    assert np.allclose(got, ref.extra["bend_angle"][inside], rtol=1e-2, atol=1e-4)
+    # the hub turns with the trunk's end (the trunk bends, clamped at its start)
+    bend = fe.responses["trunk"].path.extra["bend_angle"]
+    assert bend[-1] > 0.1
+    assert np.allclose(fe.hub_rotation[:, 0], np.abs(bend), rtol=1e-3, atol=1e-6)
+    h = fe.mesh.hubs[0]
+    X = fe.mesh.points[h.points]
+    x = X + fe.displacements[-1][h.points]
+    D0 = np.linalg.norm(X[:, None] - X[None], axis=-1)
+    D = np.linalg.norm(x[:, None] - x[None], axis=-1)
+    assert np.max(np.abs(D - D0)) < 1e-4 * D0.max()
+    info = fe.to_dict(paths=False)
+    assert info["hubs"][0]["children"] == ["finger#0", "finger#1"]
+    assert info["modules"]["finger#1"]["module"] == "finger"
+    cmp_ = compare_device(fe)
+    assert set(cmp_) == {"trunk", "finger#0", "finger#1"}
+    assert cmp_["finger#0"]["pc_rom"] == cmp_["finger#1"]["pc_rom"]
 
 
 def test_cli_refuses_an_unsupported_device_and_writes_nothing(tmp_path: Path) -> None:
@@ -257,13 +349,10 @@ def test_example_devices_mesh(file: str) -> None:
         assert m.ndof - 3 * m.clamped.sum() - (m.mirror & ~m.clamped).sum() == 8480
 
 
-def test_cli_fem_device_writes_its_files(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
-                                        ) -> None:
-    """``multimorph fem examples/fe_device.toml --json`` on the tiny test mesh: exit 0, the
-    per-module summary, and every file it lists (CSV, PNG curves and snapshots, the VTU
-    series). In curves.csv's last rows the stalk bends towards its stiff layer and the
-    symmetric seal stretches, bending far less (only through its partition with the stalk)."""
-    import csv
+def _run_fem_json(example: str, pmax: str, out: Path, monkeypatch: pytest.MonkeyPatch,
+                  ) -> dict:
+    """``multimorph fem examples/<example> --pmax <pmax> --json`` on the tiny test mesh
+    (pressure steps); asserts exit 0 and returns the JSON."""
     import json
 
     from typer.testing import CliRunner
@@ -273,12 +362,38 @@ def test_cli_fem_device_writes_its_files(tmp_path: Path, monkeypatch: pytest.Mon
 
     _register()
     monkeypatch.setitem(MESH_PRESETS, "coarse", DENS)
-    spec = Path(__file__).resolve().parents[1] / "examples" / "fe_device.toml"
-    out = tmp_path / "out"
-    res = CliRunner().invoke(app, ["fem", str(spec), "--mesh", "coarse", "--pmax", "10 kPa",
+    spec = Path(__file__).resolve().parents[1] / "examples" / example
+    res = CliRunner().invoke(app, ["fem", str(spec), "--mesh", "coarse", "--pmax", pmax,
                                    "--method", "pressure", "--out", str(out), "--json"])
     assert res.exit_code == 0, res.output
-    info = json.loads(res.output)
+    return json.loads(res.output)
+
+
+def _step_volumes(path: Path) -> list[float]:
+    """Volumes (mm³) of the solids in a STEP file, read back with gmsh."""
+    import gmsh
+
+    gmsh.initialize(interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        vols = gmsh.model.occ.importShapes(str(path))
+        gmsh.model.occ.synchronize()
+        return [gmsh.model.occ.getMass(*v) for v in vols]
+    finally:
+        gmsh.finalize()
+
+
+def test_cli_fem_device_writes_its_files(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                        ) -> None:
+    """``multimorph fem examples/fe_device.toml --json`` on the tiny test mesh: exit 0, the
+    per-module summary, and every file it lists (CSV, PNG curves and snapshots, the VTU
+    series). In curves.csv's last rows the stalk bends towards its stiff layer and the
+    symmetric seal stretches, bending far less (only through its partition with the stalk)."""
+    import csv
+    import json
+
+    out = tmp_path / "out"
+    info = _run_fem_json("fe_device.toml", "10 kPa", out, monkeypatch)
     for f in ("summary.json", "curves.csv", "tip.csv", "curves.png", "snapshots.png",
               "device.step", "device.stl", "device.pvd", "device_0000.vtu"):
         assert f in info["files"] and (out / f).exists(), f
@@ -286,17 +401,7 @@ def test_cli_fem_device_writes_its_files(tmp_path: Path, monkeypatch: pytest.Mon
         assert (out / f).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     # the solid (STEP and STL, mm): the boxes of the two modules minus their four chambers,
     # one volume; read back with gmsh, its volume is exact
-    import gmsh
-
-    gmsh.initialize(interruptible=False)
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        vols = gmsh.model.occ.importShapes(str(out / "device.step"))
-        gmsh.model.occ.synchronize()
-        assert len(vols) == 1
-        vol = gmsh.model.occ.getMass(*vols[0])
-    finally:
-        gmsh.finalize()
+    (vol,) = _step_volumes(out / "device.step")
     seal, bend = (10 * 20 * 6) - 2 * (8 * 8 * 4.4), (8 * 20 * 6) - 2 * (6 * 8 * 3.7)
     assert vol == pytest.approx(seal + bend, rel=1e-9)
     pts = np.array([[float(v) for v in line.split()[1:4]]
@@ -322,3 +427,29 @@ def test_cli_fem_device_writes_its_files(tmp_path: Path, monkeypatch: pytest.Mon
         # the walls stretch more than the centroid line: the peak exceeds the mean stretch
         assert fin["peak_stretch"] > float(last[name]["axial_stretch"]) > 1.0
         start += length
+
+
+def test_cli_fem_fingers_on_a_hub(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """``multimorph fem examples/fe_fingers.toml --json`` (a stretching base carrying three
+    fingers on a hub) on the tiny test mesh: every copy is a module entry and bends alike,
+    the hub is reported, and the STEP holds the four pieces with exactly their volumes."""
+    import csv
+
+    out = tmp_path / "out"
+    dev = _run_fem_json("fe_fingers.toml", "8 kPa", out, monkeypatch)["device"]
+    assert set(dev["modules"]) == {"base", "finger#0", "finger#1", "finger#2"}
+    assert dev["hubs"][0]["parent"] == "base"
+    assert dev["hubs"][0]["children"] == ["finger#0", "finger#1", "finger#2"]
+    with open(out / "curves.csv") as fh:
+        rows = [r for r in csv.DictReader(fh) if float(r["pressure_pa"]) == 8e3]
+    bend = {r["module"]: float(r["bend_angle_deg"]) for r in rows}
+    assert bend["finger#0"] > 0.5
+    assert bend["finger#1"] == pytest.approx(bend["finger#0"], rel=1e-5)
+    assert bend["finger#2"] == pytest.approx(bend["finger#0"], rel=1e-5)
+    assert abs(bend["base"]) < 1e-3 * bend["finger#0"]  # symmetric hub load: no bending
+    vols = _step_volumes(out / "device.step")
+    total = sum(vols)
+    base, finger = (10 * 20 * 6) - 2 * (8 * 8 * 4.4), (8 * 20 * 6) - 2 * (6 * 8 * 3.7)
+    # fingers 1 and 2 (at ±120°) touch the base's 10 × 6 mm end face and fuse with it,
+    # finger 0 (7 mm out along z, 3 mm half height) clears it: two volumes
+    assert len(vols) == 2 and total == pytest.approx(base + 3 * finger, rel=1e-9)

@@ -295,15 +295,15 @@ def _fem_device(spec: Path, table: dict[str, Any], *, mesh: str, element_size: s
     spec's)."""
 
     from multimorph.device import device_from_spec
-    from multimorph.fe import FESettings, compare_device, fe_device_modules, simulate_device
+    from multimorph.fe import FESettings, compare_device, fe_device_branches, simulate_device
     from multimorph.fe._device import plot_device, write_device_vtu
-    from multimorph.fe._device_mesh import device_boxes
-    from multimorph.fe._output import export_box_solid
+    from multimorph.fe._device_mesh import device_pieces
+    from multimorph.fe._output import export_box_pieces
     from multimorph.io import atomic_output_dir, write_json
     from multimorph.units import to_si
 
     device = device if device is not None else device_from_spec(table)
-    fe_device_modules(device)  # refuse what FE cannot mesh before any work
+    fe_device_branches(device)  # refuse what FE cannot mesh before any work
     p_max = to_si(pmax, "Pa", field="--pmax") if pmax else device.pmax
     size = to_si(element_size, "m", field="--element-size") if element_size else None
     settings = FESettings(mesh=_density(mesh, size, wall_elements), half=not full, p_max=p_max,
@@ -344,10 +344,10 @@ def _fem_device(spec: Path, table: dict[str, Any], *, mesh: str, element_size: s
             write_json(tmp / "comparison.json", comparison)
             files.append("comparison.json")
         files += plot_device(result, tmp)
-        outer, inner = device_boxes(device)
-        edge = min(min(b[3:]) for b in outer + inner) / 2
+        pieces = device_pieces(device)
+        edge = min(min(b[3:]) for outer, inner, _ in pieces for b in [*outer, *inner]) / 2
         for name in ("device.step", "device.stl"):
-            export_box_solid(outer, inner, tmp / name, edge)
+            export_box_pieces(pieces, tmp / name, edge)
             files.append(name)
         if vtu:
             files += write_device_vtu(result, tmp)
@@ -367,19 +367,21 @@ def _fem_device(spec: Path, table: dict[str, Any], *, mesh: str, element_size: s
                   f"iterations, {st['solver']}, {st['wall_time']:.1f} s "
                   f"({st['stop_reason'] or st['status']}){_resumed_note(st, ck)}",
                   highlight=False)
-    top = float(result.pressure.max())
-    head = f"  {'module':<10} {'kind':<10} {'Pc':>6} {'Ph':>6} {'bend°':>6} {'stretch':>7}"
+    head = (f"  {'module':<10} {'kind':<10} {'Pc':>6} {'Ph':>6} {'at P':>6} {'bend°':>6} "
+            f"{'stretch':>7}")
     if comparison is not None:
         head += f"  {'ROM Pc':>6} {'rel':>5} {'Ph':>6} {'rel':>5}"
-    console.print(f"modules (Pc, Ph in kPa, — not reached; bend towards the stiff layer and "
-                  f"centroid stretch at {top / 1e3:.3g} kPa):", highlight=False)
+    console.print("modules (Pc, Ph in kPa, — not reached; bend towards the stiff layer and "
+                  "centroid stretch at P, the top of the module's stable loading curve):",
+                  highlight=False)
     console.print(head, highlight=False, soft_wrap=True)
     for m in result.mesh.modules:
         pc, ph = result.activation(m.name)
         at = result.module_at(m.name)
         kind = f"{m.kind[:7]} {math.degrees(m.orientation):.0f}°"
         line = (f"  {m.name[:10]:<10} {kind:<10} {kpa(pc):>6} {kpa(ph):>6} "
-                f"{math.degrees(at['bend_angle']):>6.1f} {at['axial_stretch']:>7.3f}")
+                f"{kpa(at['pressure']):>6} {math.degrees(at['bend_angle']):>6.1f} "
+                f"{at['axial_stretch']:>7.3f}")
         if comparison is not None:
             k = comparison[m.name]
             line += (f"  {kpa(k['pc_rom']):>6} {_pct(k['pc_rel']):>5} {kpa(k['ph_rom']):>6} "
@@ -392,7 +394,12 @@ def _fem_device(spec: Path, table: dict[str, Any], *, mesh: str, element_size: s
                   f"{w['pressure_pa'] / 1e3:.3g} kPa in module {worst!r} ({w['peak_region']}, "
                   f"at x, y, z = {', '.join(f'{v * 1e3:.1f}' for v in w['peak_location_m'])} mm "
                   f"undeformed)", highlight=False)
-    console.print(f"tip at {result.pressure[-1] / 1e3:.3g} kPa: y = "
+    for hub in info["device"].get("hubs", []):
+        console.print(f"hub at the end of {hub['parent']!r} (rigid, {hub['tied_nodes']} nodes "
+                      f"tied): turned {hub['final_rotation_deg']:.1f}°, carries "
+                      f"{', '.join(hub['children'])}", highlight=False)
+    where = " (end of the clamped branch)" if result.mesh.hubs else ""
+    console.print(f"tip{where} at {result.pressure[-1] / 1e3:.3g} kPa: y = "
                   f"{result.tip[-1, 1] * 1e3:.2f} mm, z = {result.tip[-1, 2] * 1e3:.2f} mm, "
                   f"angle {math.degrees(result.tip_angle[-1]):.1f}°", highlight=False)
     console.print(f"files in {folder}/")

@@ -30,6 +30,7 @@ from multimorph.fe._device import (
     FEDeviceResult,
     compare_device,
     device_mesh,
+    fe_device_branches,
     fe_device_modules,
     simulate_device,
 )
@@ -81,6 +82,7 @@ __all__ = [
     "compare_twisting",
     "continuation",
     "device_mesh",
+    "fe_device_branches",
     "fe_device_modules",
     "line_stretch",
     "make_solver",

@@ -1,12 +1,15 @@
-"""3D FE of a device: bending and stretching modules in series on one pressure line.
+"""3D FE of a device: bending and stretching modules in series and in parallel branches, on
+one pressure line.
 
-One structured hexahedral grid holds the whole device (:mod:`._device_mesh`: cross-sections
-centred on a common axis, the modules' cells in series from the clamped face y = 0, every
-chamber on the one pressure line).
+One structured hexahedral grid holds each branch (:mod:`._device_mesh`: cross-sections
+centred on a common axis, the modules' cells in series from the branch's start, every
+chamber on the one pressure line). Parallel branches (fingers on a hub) are placed as the
+reduced model places them and tied to their parent's end by a rigid hub.
 
 Each module is measured from node coordinates at every converged point, as the reference
 paper measured its FE devices: the bend angle is the rotation about x of its end section
-relative to its start section (best-fit rotations of the sections' nodes), the axial stretch
+relative to its start section (best-fit rotations of the sections' nodes, in the frame of
+the module's branch copy), the axial stretch
 is the length of the circular arc through the section centroids with that angle, over the
 module length. A module's Pc and Ph come from :func:`~multimorph.response.build_response` on
 its own signal (bending: curvature = angle / length in the module's frame; stretching: the
@@ -37,6 +40,7 @@ from multimorph.fe._device_mesh import (
     DeviceMesh,
     _flipped,
     device_mesh,
+    fe_device_branches,
     fe_device_modules,
 )
 from multimorph.fe._linsolve import make_solver
@@ -54,19 +58,23 @@ from multimorph.fe._solve import PathPoint
 from multimorph.response import EquilibriumPath, Response, build_response
 
 __all__ = ["FE_MODULE_KINDS", "DeviceMesh", "FEDeviceResult", "compare_device", "device_mesh",
-           "fe_device_modules", "plot_device", "simulate_device"]
+           "fe_device_branches", "fe_device_modules", "plot_device", "simulate_device"]
 
 
 def _section_motion(X: np.ndarray, x: np.ndarray, s: np.ndarray, e: np.ndarray,
-                    mirror_x: float | None) -> tuple[float, float, float]:
+                    mirror_x: float | None, Q: np.ndarray | None = None,
+                    ) -> tuple[float, float, float]:
     """Bend and twist (rad) of section ``e`` relative to section ``s`` and the y–z chord of
-    their node centroids (m).
+    their node centroids (m), in the frame whose axes are the columns of ``Q`` (default the
+    mesh frame).
 
     A half model's sections are completed by their mirror images (x → 2 x_m − x), so the
     best-fit rotations are those of the whole sections: exactly about x, and composing
     additively along the device.
     """
     def whole(P: np.ndarray) -> np.ndarray:
+        if Q is not None:
+            P = P @ Q  # rows: coordinates along Q's columns
         if mirror_x is None:
             return P
         return np.concatenate([P, P * [-1.0, 1.0, 1.0] + [2.0 * mirror_x, 0.0, 0.0]])
@@ -74,7 +82,7 @@ def _section_motion(X: np.ndarray, x: np.ndarray, s: np.ndarray, e: np.ndarray,
     Xs, xs, Xe, xe = whole(X[s]), whole(x[s]), whole(X[e]), whole(x[e])
     Rs = _kabsch(Xs, xs)
     bend, twist = bend_and_twist(Xe, xe @ Rs)  # rows rotated by Rsᵀ: Rsᵀ R_e
-    chord = float(np.linalg.norm(x[e, 1:].mean(0) - x[s, 1:].mean(0)))
+    chord = float(np.linalg.norm(xe[:, 1:].mean(0) - xs[:, 1:].mean(0)))
     return bend, twist, chord
 
 
@@ -91,9 +99,11 @@ class _DeviceRecorder:
         self.V0 = np.array([chamber_volume(m.points, m.chamber_faces[m.face_module == i],
                                            mirror_x=self.mirror_x)
                             for i in range(len(m.modules))])
-        self.chord0 = np.array([_section_motion(m.points, m.points, s_, e_, None)[2]
-                                for s_, e_ in zip(m.start_sections, m.end_sections,
-                                                  strict=True)])
+        self.chord0 = np.array([_section_motion(m.points, m.points, s_, e_, None, f[1])[2]
+                                for s_, e_, f in zip(m.start_sections, m.end_sections,
+                                                     m.frames, strict=True)])
+        # a hub's rotation node carries a rotation vector, not a displacement
+        self.rotation_nodes = np.array([h.rotation for h in m.hubs], dtype=int)
         self.sign = np.array([-1.0 if _flipped(mod) else 1.0 for mod in m.modules])
         self.rows: list[dict[str, Any]] = []
         self.u: list[np.ndarray] = []
@@ -105,6 +115,8 @@ class _DeviceRecorder:
         m = self.mesh
         self.problem.set_x(pt.x)
         u = self.problem.values.copy() * self.L
+        hub_rotation = [float(np.linalg.norm(u[h.rotation])) / self.L for h in m.hubs]
+        u[self.rotation_nodes] = u[[h.center for h in m.hubs]]
         x = m.points + u
         k = len(m.modules)
         bend, twist, lam, vol, peak = (np.zeros(k) for _ in range(5))
@@ -112,7 +124,7 @@ class _DeviceRecorder:
         turn = 2.0 * math.pi
         for i in range(k):
             b, t, chord = _section_motion(m.points, x, m.start_sections[i], m.end_sections[i],
-                                          self.mirror_x)
+                                          self.mirror_x, m.frames[i][1])
             if m.half:
                 t = 0.0  # zero by the mirror symmetry
             if prev is not None:  # continuous along the path (a module may curl past 180°)
@@ -132,17 +144,18 @@ class _DeviceRecorder:
             peak[i] = float(ev[:, j].max())
             where[i] = m.points[m.cells[j]].mean(axis=0)  # reference centroid
             region[i] = int(m.region[j])
-        tip_bend = _section_motion(m.points, x, m.start_sections[0], m.end_sections[-1],
-                                   self.mirror_x)[0]
+        tip_bend = _section_motion(m.points, x, m.start_sections[0],
+                                   m.end_sections[m.tip_entry], self.mirror_x)[0]
         if prev is not None:
             tip_bend += turn * round((prev["tip_angle"] - tip_bend) / turn)
-        tip = x[m.end_sections[-1]].mean(axis=0)
+        tip = x[m.end_sections[m.tip_entry]].mean(axis=0)
         if m.half:
             tip[0] = m.width / 2  # the whole section's centroid, by symmetry
         self.rows.append({
             "pressure": pt.pressure * self.mu, "rel_bend": bend, "twist": twist,
             "stretch": lam, "volume": vol, "peak": peak, "peak_location": where,
             "peak_region": region, "tip": tip, "tip_angle": tip_bend,
+            "hub_rotation": hub_rotation,
             "stable": bool(pt.stable) if pt.stable is not None else True,
             "iterations": pt.iterations, "arc_length": pt.method == "arc-length",
         })
@@ -214,6 +227,9 @@ class FEDeviceResult:
     stretch : ndarray (n, ncells)
         Largest principal stretch per element (mean over its Gauss points).
     stats : dict
+    hub_rotation : ndarray (n, hubs)
+        Rotation angle (rad) of every rigid hub (``mesh.hubs``) from its undeformed state;
+        empty columns for a series device.
     """
 
     device: Device
@@ -226,6 +242,7 @@ class FEDeviceResult:
     displacements: np.ndarray
     stretch: np.ndarray
     stats: dict[str, Any] = field(default_factory=dict)
+    hub_rotation: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
 
     def module_at(self, name: str, pressure: float | None = None) -> dict[str, float]:
         """Bend angle (rad, module frame) and axial stretch of a module on its observed
@@ -250,12 +267,12 @@ class FEDeviceResult:
         pressure, the final tip, statistics (SI units); with ``paths`` also every module's
         whole path and the tip path."""
         mods: dict[str, Any] = {}
-        for m in self.mesh.modules:
+        for m, src in zip(self.mesh.modules, self.mesh.source, strict=True):
             r = self.responses[m.name]
             p = r.path
             at = self.module_at(m.name)
             mods[m.name] = {
-                "kind": m.kind, "orientation_deg": math.degrees(m.orientation),
+                "kind": m.kind, "module": src, "orientation_deg": math.degrees(m.orientation),
                 "cells": m.n_cells, "length_m": m.length, "shear_modulus_pa": r.shear_modulus,
                 **r.characteristic.to_dict(),
                 "activated": [v is not None for v in self.activation(m.name)],
@@ -277,6 +294,13 @@ class FEDeviceResult:
                              "position_m": self.tip[-1].tolist(),
                              "angle_deg": math.degrees(self.tip_angle[-1])},
                "stats": self.stats}
+        if self.mesh.hubs:
+            names = [m.name for m in self.mesh.modules]
+            out["hubs"] = [{"parent": names[h.parent],
+                            "children": [names[c] for c in h.children],
+                            "tied_nodes": len(h.points),
+                            "final_rotation_deg": math.degrees(float(self.hub_rotation[-1, k]))}
+                           for k, h in enumerate(self.mesh.hubs)]
         if paths:
             out["tip"] = {"pressure_pa": self.pressure.tolist(), "position_m": self.tip.tolist(),
                           "angle_deg": np.degrees(self.tip_angle).tolist()}
@@ -292,8 +316,10 @@ def simulate_device(device: Device, settings: FESettings | None = None,
     Parameters
     ----------
     device : Device
-        One series branch of bending and stretching modules, orientations 0° or 180°
-        (:func:`fe_device_modules`; anything else raises :class:`SpecError`).
+        Branches of bending and stretching modules, orientations 0° or 180°: one clamped
+        series, parallel branches tied to their parent's end by rigid hubs
+        (:func:`fe_device_branches`; anything else raises :class:`SpecError`). A branched
+        device is modelled whole (``settings.half`` applies to a series device only).
     settings : FESettings, optional
         As for a cell; ``p_max`` defaults to the device's design pressure ``device.pmax``
         (Pa); the volume-ratio stop applies to each module's chambers, the stretch stop
@@ -328,8 +354,10 @@ def simulate_device(device: Device, settings: FESettings | None = None,
     fixed[mesh.mirror, 0] = True
     bodies = [(np.flatnonzero(mesh.material == i), mat.scaled(1.0 / mu))
               for i, mat in enumerate(mesh.materials)]
+    ties = [(h.points, h.center, h.rotation) for h in mesh.hubs]
     problem = PressureProblem(fem.Mesh(mesh.points / L, mesh.cells, "hexahedron"),
-                              [(c, m) for c, m in bodies if len(c)], mesh.chamber_points, fixed)
+                              [(c, m) for c, m in bodies if len(c)], mesh.chamber_points, fixed,
+                              ties=ties, tie_stiffness=_hub_stiffness(mesh, L, mu))
     solver = make_solver(s.solver)
     p_max = s.p_max if s.p_max is not None else device.pmax
     breaks = [m.cell.material.break_stretch for m in mods
@@ -369,7 +397,20 @@ def simulate_device(device: Device, settings: FESettings | None = None,
         stable=np.array([r["stable"] for r in rows], dtype=bool),
         tip=np.array([r["tip"] for r in rows]),
         tip_angle=np.array([r["tip_angle"] for r in rows]),
-        displacements=np.array(rec.u), stretch=np.array(rec.cell_stretch), stats=stats)
+        displacements=np.array(rec.u), stretch=np.array(rec.cell_stretch), stats=stats,
+        hub_rotation=np.array([r["hub_rotation"] for r in rows]).reshape(len(rows), -1))
+
+
+def _hub_stiffness(mesh: DeviceMesh, L: float, mu: float) -> float:
+    """Penalty of the rigid hubs (scaled units: force per length in μ L): 10³ times the
+    stiffness μ_max h of the stiffest material over the smallest element edge h, so a tied
+    node moves ~10⁻³ of what the elastic neighbourhood would allow."""
+    if not mesh.hubs:
+        return 0.0
+    e = mesh.points[mesh.cells]
+    h = min(float(np.linalg.norm(e[:, k] - e[:, 0], axis=1).min()) for k in (1, 3, 4))
+    mu_max = max(mat.shear_modulus for mat in mesh.materials) / mu
+    return 1e3 * mu_max * h / L
 
 
 def _rel(a: float | None, b: float | None) -> float | None:
@@ -416,8 +457,8 @@ def compare_device(fe: FEDeviceResult, rom: Any = None, *, rom_p_max: float | No
 
         rom = rom_device(fe.device, p_rom)
     out: dict[str, dict[str, Any]] = {}
-    for m in fe.mesh.modules:
-        rr = rom.strains[m.name].response
+    for m, src in zip(fe.mesh.modules, fe.mesh.source, strict=True):
+        rr = rom.strains[src].response
         cr = rr.characteristic
         pc_f, ph_f = fe.activation(m.name)
         pc_r = _reached(cr.critical, rr)

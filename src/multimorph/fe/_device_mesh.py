@@ -1,20 +1,28 @@
-"""The structured hexahedral mesh of a device: modules in series, one pressure line.
+"""The structured hexahedral mesh of a device: modules in series and parallel branches, one
+pressure line.
 
-One grid holds the whole device. Every module's cross-section is centred on the common axis
-(x = W/2, z = H/2, with W × H the largest box); the grid is cut at every module's wall planes
-(x and z: the union over modules, z mirrored within the section for a module turned by
-180°), and along y each module's cells follow each other from the clamped face y = 0, as in
-:func:`~multimorph.fe.cell_mesh`. A grid cell is kept when it lies inside its module's box
-and outside its chambers; neighbouring modules' end walls merge into one partition, like
-adjacent cells of a module. Every chamber is on the one pressure line.
-:func:`fe_device_modules` says which devices the grid can hold.
+One grid holds each branch (a series of modules). Every module's cross-section is centred on
+the common axis (x = W/2, z = H/2, with W × H the largest box); the grid is cut at every
+module's wall planes (x and z: the union over modules, z mirrored within the section for a
+module turned by 180°), and along y each module's cells follow each other from the branch's
+start y = 0 (the clamped face of the main branch), as in :func:`~multimorph.fe.cell_mesh`.
+A grid cell is kept when it lies inside its module's box and outside its chambers;
+neighbouring modules' end walls merge into one partition, like adjacent cells of a module.
+Every chamber is on the one pressure line.
+
+Parallel branches (``attach_to``, ``count`` copies at ``radius`` around the parent's axis,
+placed as the reduced model places them) get a grid each, turned and moved into place. The
+parent module's end section and the start sections of every copy are tied by a rigid *hub*
+(:class:`Hub`: a penalty multi-point constraint with a rotation point, FElupe's
+``MultiPointConstraint``): the rigid joint the reduced model assumes. A branched device is
+meshed whole (no mirror plane). :func:`fe_device_branches` says which devices FE can hold.
 """
 
 from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -33,55 +41,116 @@ from multimorph.fe._mesh import (
 )
 from multimorph.materials import Material
 
-__all__ = ["FE_MODULE_KINDS", "DeviceMesh", "device_boxes", "device_mesh", "fe_device_modules"]
+__all__ = ["FE_MODULE_KINDS", "DeviceMesh", "FEBranch", "Hub", "device_boxes", "device_mesh",
+           "device_pieces", "fe_device_branches", "fe_device_modules"]
 
 
 #: Module kinds that the structured device mesh can hold.
 FE_MODULE_KINDS = ("bending", "stretching")
 
-_SUPPORTED = ("FE devices support one series branch of bending and stretching modules "
-              "(count = 1, orientation 0 or 180 deg, each starting where the previous ends)")
+_SUPPORTED = ("FE devices support branches of bending and stretching modules in series "
+              "(orientation 0 or 180 deg, each starting where the previous ends); a branch "
+              "attaches to the end of a module with one copy")
 
 
-def fe_device_modules(device: Device) -> tuple[Module, ...]:
-    """The device's modules in order along its one branch, checked for FE.
+@dataclass(frozen=True)
+class FEBranch:
+    """One branch of a device as FE meshes it: ``modules`` in series, ``count`` copies at
+    ``radius`` around the axis of ``parent``'s end (``None``: the clamped main branch)."""
+
+    name: str
+    modules: tuple[Module, ...]
+    parent: str | None = None
+    count: int = 1
+    radius: float = 0.0
+
+
+def fe_device_branches(device: Device) -> tuple[FEBranch, ...]:
+    """The device's branches, parents before children, checked for FE.
 
     Raises
     ------
     SpecError
-        Naming the module and field for anything the structured mesh cannot hold: twisting
-        modules, parallel branches (``attach_to``, a second branch), ``count`` > 1, an
-        orientation other than 0° or 180°, or a gap between modules.
+        Naming the module and field for anything FE cannot hold: twisting modules, an
+        orientation other than 0° or 180°, a gap between modules of a branch, copies
+        (``count`` > 1) on the clamped branch or differing within a branch, a branch attached
+        to a module with copies.
     """
-    branches = device.branches()
     for m in device.modules:
         where = f"module {m.name!r}"
         if m.kind not in FE_MODULE_KINDS:
             raise SpecError(f"{where}.kind: {m.kind!r} is not supported by FE; {_SUPPORTED}")
-        if m.attach_to is not None:
-            raise SpecError(f"{where}.attach_to: parallel branches are not supported by FE; "
-                            f"{_SUPPORTED}")
-        if m.count != 1:
-            raise SpecError(f"{where}.count: {m.count} copies are not supported by FE; "
-                            f"{_SUPPORTED}")
         turn = math.remainder(m.orientation, math.pi)
         if abs(turn) > 1e-9:
             raise SpecError(f"{where}.orientation: {math.degrees(m.orientation):.4g} deg is not "
                             f"supported by FE; {_SUPPORTED}")
+    out: list[FEBranch] = []
+    for name, mods in device.branches().items():
+        parent = next((m.attach_to for m in mods if m.attach_to is not None), None)
+        for a, b in itertools.pairwise(mods):
+            if abs(b.start - a.end) > 1e-9 * max(a.end, 1e-3):
+                raise SpecError(f"module {b.name!r}.start: starts at {b.start * 1e3:.4g} mm, "
+                                f"not where {a.name!r} ends ({a.end * 1e3:.4g} mm); {_SUPPORTED}")
+        counts = {m.count for m in mods}
+        if len(counts) > 1:
+            raise SpecError(f"module {mods[-1].name!r}.count: the modules of branch {name!r} "
+                            f"have different counts {sorted(counts)}; {_SUPPORTED}")
+        count = mods[0].count
+        if parent is None and count != 1:
+            raise SpecError(f"module {mods[0].name!r}.count: {count} copies of the clamped "
+                            f"branch {name!r} are not supported by FE; {_SUPPORTED}")
+        if parent is not None and device.module(parent).count != 1:
+            raise SpecError(f"module {mods[0].name!r}.attach_to: {parent!r} has "
+                            f"{device.module(parent).count} copies; {_SUPPORTED}")
+        out.append(FEBranch(name, tuple(mods), parent, count, mods[0].radius))
+    roots = [b for b in out if b.parent is None]
+    if len(roots) != 1:
+        names = ", ".join(sorted(b.name for b in roots))
+        raise SpecError(f"module branch: the device has {len(roots)} clamped branches "
+                        f"({names}); FE needs exactly one (the others attach_to a module)")
+    ordered = roots
+    placed = {m.name for m in roots[0].modules}
+    rest = [b for b in out if b.parent is not None]
+    while rest:  # Device validation rules out cycles
+        ready = [b for b in rest if b.parent in placed]
+        ordered += ready
+        placed |= {m.name for b in ready for m in b.modules}
+        rest = [b for b in rest if b not in ready]
+    return tuple(ordered)
+
+
+def fe_device_modules(device: Device) -> tuple[Module, ...]:
+    """The device's modules in order along its one branch (a series device), checked for FE.
+
+    Raises
+    ------
+    SpecError
+        As :func:`fe_device_branches`, and for a device with more than one branch.
+    """
+    branches = fe_device_branches(device)
     if len(branches) != 1:
-        names = ", ".join(sorted(branches))
+        names = ", ".join(b.name for b in branches)
         raise SpecError(f"module branch: the device has {len(branches)} branches ({names}); "
-                        f"{_SUPPORTED}")
-    mods = tuple(next(iter(branches.values())))
-    for a, b in itertools.pairwise(mods):
-        if abs(b.start - a.end) > 1e-9 * max(a.end, 1e-3):
-            raise SpecError(f"module {b.name!r}.start: starts at {b.start * 1e3:.4g} mm, not "
-                            f"where {a.name!r} ends ({a.end * 1e3:.4g} mm); {_SUPPORTED}")
-    return mods
+                        "this needs a single series of modules")
+    return branches[0].modules
 
 
 def _flipped(m: Module) -> bool:
     return abs(math.remainder(m.orientation, 2.0 * math.pi)) > 1e-9
+
+
+@dataclass(frozen=True, eq=False)
+class Hub:
+    """A rigid joint: ``points`` (the parent's end section and the start sections of a
+    branch's copies) keep their arms to ``center`` up to one rotation, whose rotation vector
+    (rad) is the displacement of the extra node ``rotation``. ``parent`` and ``children``
+    are module entries of the mesh."""
+
+    points: np.ndarray
+    center: int
+    rotation: int
+    parent: int
+    children: tuple[int, ...]
 
 
 @dataclass(frozen=True, eq=False)
@@ -110,14 +179,29 @@ class DeviceMesh:
     start_sections, end_sections : tuple of ndarray
         Per module, the nodes of its start and end cross-section (inside its own box).
     starts : ndarray (k + 1,)
-        y of every module's start and of the free end (m).
+        y of every module's start and of the free end (m) along the clamped branch.
     modules : tuple of Module
+        The module *entries*: every copy of a module with ``count`` > 1 is an entry named
+        ``"<module>#<copy>"`` (as in the reduced model's shapes); ``source`` names the
+        module it copies.
     materials : tuple of Material
         Distinct materials, in order of first use (module wall, then bottom layer).
     width, height : float
-        The largest box W × H (m); sections are centred on x = W/2, z = H/2.
+        The clamped branch's largest box W × H (m); its sections are centred on x = W/2,
+        z = H/2.
     half : bool
     density : MeshDensity
+    frames : tuple of (ndarray (3,), ndarray (3, 3))
+        Per entry, the origin (centre of its start section) and the rotation Q whose
+        columns are its branch copy's x, y (axis) and z axes in the undeformed mesh frame
+        (an unturned module has its stiff layer towards −z of that frame).
+    hubs : tuple of Hub
+        Rigid joints of parallel branches (none for a series device). Their ``center`` and
+        ``rotation`` nodes belong to no element.
+    source : tuple of str
+        Per entry, the name of the device module it is (a copy of).
+    tip_entry : int
+        The entry whose end section is the device's tip (the end of the clamped branch).
     """
 
     points: np.ndarray
@@ -139,10 +223,26 @@ class DeviceMesh:
     height: float
     half: bool
     density: MeshDensity = field(default_factory=MeshDensity)
+    frames: tuple[tuple[np.ndarray, np.ndarray], ...] = ()
+    hubs: tuple[Hub, ...] = ()
+    source: tuple[str, ...] = ()
+    tip_entry: int = -1
+
+    def __post_init__(self) -> None:
+        k = len(self.modules)
+        if not self.frames:
+            eye = np.eye(3)
+            object.__setattr__(self, "frames", tuple(
+                (np.array([self.width / 2, float(self.starts[i]), self.height / 2]), eye)
+                for i in range(k)))
+        if not self.source:
+            object.__setattr__(self, "source", tuple(m.name for m in self.modules))
+        if self.tip_entry < 0:
+            object.__setattr__(self, "tip_entry", k - 1)
 
     @property
     def length(self) -> float:
-        """Device length along y (m)."""
+        """Length of the clamped branch along y (m)."""
         return float(self.starts[-1])
 
     @property
@@ -193,12 +293,9 @@ def _layout(mods: tuple[Module, ...]) -> tuple[float, float, list[dict[str, Any]
     return W, H, geo
 
 
-def device_boxes(device: Device) -> tuple[list[tuple[float, ...]], list[tuple[float, ...]]]:
-    """The device solid as boxes (m, the FE mesh's frame: y along the axis from the
-    clamped end): one outer box per module and one box per chamber, each
-    ``(x, y, z, dx, dy, dz)``. The solid is the union of the outer boxes minus the
-    chambers."""
-    mods = fe_device_modules(device)
+def _boxes(mods: tuple[Module, ...]) -> tuple[list[tuple[float, ...]], list[tuple[float, ...]]]:
+    """Outer and chamber boxes ``(x, y, z, dx, dy, dz)`` of one series branch in its grid's
+    frame (axis x = W/2, z = H/2, from y = 0)."""
     W, _, geo = _layout(mods)
     outer, inner = [], []
     y0 = 0.0
@@ -213,28 +310,102 @@ def device_boxes(device: Device) -> tuple[list[tuple[float, ...]], list[tuple[fl
     return outer, inner
 
 
+def device_boxes(device: Device) -> tuple[list[tuple[float, ...]], list[tuple[float, ...]]]:
+    """The solid of a series device as boxes (m, the FE mesh's frame: y along the axis from
+    the clamped end): one outer box per module and one box per chamber, each
+    ``(x, y, z, dx, dy, dz)``. The solid is the union of the outer boxes minus the
+    chambers. A branched device: :func:`device_pieces`."""
+    return _boxes(fe_device_modules(device))
+
+
+def _rot_y(angle: float) -> np.ndarray:
+    """Rotation by ``angle`` about y (the reduced model's placement of parallel copies)."""
+    c, s = math.cos(angle), math.sin(angle)
+    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+
+
+@dataclass(frozen=True)
+class _Placement:
+    """A branch copy in the mesh frame: local grid point p ↦ origin + Q (p − centre)."""
+
+    branch: FEBranch
+    copy: int
+    origin: np.ndarray
+    Q: np.ndarray
+    centre: np.ndarray
+
+
+def _placements(branches: tuple[FEBranch, ...]) -> list[_Placement]:
+    """Every branch copy placed as the reduced model places it: the clamped branch's grid
+    is the mesh frame; copy j of a branch starts at its parent's end section, turned by
+    2πj/count about the parent's axis and moved ``radius`` along the turned z."""
+    out: list[_Placement] = []
+    end: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    for br in branches:
+        W, H, _ = _layout(br.modules)
+        centre = np.array([W / 2, 0.0, H / 2])
+        for j in range(br.count):
+            if br.parent is None:
+                origin, Q = centre.copy(), np.eye(3)
+            else:
+                o, R = end[br.parent]
+                Q = R @ _rot_y(2.0 * math.pi * j / br.count)
+                origin = o + Q @ np.array([0.0, 0.0, br.radius])
+            out.append(_Placement(br, j, origin, Q, centre))
+            y = 0.0
+            for m in br.modules:
+                y += m.length
+                if j == 0:
+                    end[m.name] = (origin + Q @ np.array([0.0, y, 0.0]), Q)
+    return out
+
+
+def _affine(pl: _Placement) -> list[float]:
+    """Row-major 3 × 4 map of a placement (local grid frame → mesh frame, m)."""
+    t = pl.origin - pl.Q @ pl.centre
+    return [*pl.Q[0], t[0], *pl.Q[1], t[1], *pl.Q[2], t[2]]
+
+
+def device_pieces(device: Device) -> list[tuple[list[tuple[float, ...]], list[tuple[float, ...]],
+                                                list[float]]]:
+    """The device solid as pieces, one per branch copy: its outer and chamber boxes in its
+    own grid frame (:func:`device_boxes`' form) and the row-major 3 × 4 affine map (m) into
+    the mesh frame. Pieces touch only where the geometry makes them; FE joins them by rigid
+    hubs (see the module docstring)."""
+    return [(*_boxes(pl.branch.modules), _affine(pl))
+            for pl in _placements(fe_device_branches(device))]
+
+
 def device_mesh(device: Device, mesh: str | MeshDensity = "coarse", *,
                 element_size: float | None = None, half: bool = True) -> DeviceMesh:
-    """Mesh a device's modules in series with one structured hexahedral grid.
+    """Mesh a device: a structured hexahedral grid per branch copy, rigid hubs between.
 
     Parameters
     ----------
     device : Device
-        One series branch of bending and stretching modules (see :func:`fe_device_modules`).
+        Branches of bending and stretching modules (see :func:`fe_device_branches`).
     mesh : {"coarse", "medium", "fine"} or MeshDensity
         Density; the in-plane edge along y is each module's own (a fraction of its cell
-        length), across (x, z) the smallest over the modules.
+        length), across (x, z) the smallest over a branch's modules.
     element_size : float, optional
         Explicit target edge length (m).
     half : bool
-        Mesh only x ≤ W/2 (every module is mirror-symmetric about the common plane).
+        Mesh only x ≤ W/2 (every module is mirror-symmetric about the common plane). Only a
+        series device (one branch); a branched device is always meshed whole.
 
     Returns
     -------
     DeviceMesh
     """
-    mods = fe_device_modules(device)
+    branches = fe_device_branches(device)
     dens = resolve_density(mesh, element_size)
+    if len(branches) == 1:
+        return _series_mesh(branches[0].modules, dens, half)
+    return _branched_mesh(branches, dens)
+
+
+def _series_mesh(mods: tuple[Module, ...], dens: MeshDensity, half: bool) -> DeviceMesh:
+    """One structured grid of modules in series (see :func:`device_mesh`)."""
     n = dens.wall_elements
     W, H, geo = _layout(mods)
     edge = min(dens.edge(m.cell) for m in mods)
@@ -325,3 +496,87 @@ def device_mesh(device: Device, mesh: str | MeshDensity = "coarse", *,
         end_sections=tuple(section(starts[i + 1], q) for i, q in enumerate(geo)),
         starts=y_at, modules=mods, materials=tuple(materials), width=W, height=H, half=half,
         density=dens)
+
+
+def _branched_mesh(branches: tuple[FEBranch, ...], dens: MeshDensity) -> DeviceMesh:
+    """Grids of every branch copy, placed in the mesh frame and joined by rigid hubs."""
+    pts: list[np.ndarray] = []
+    cells: list[np.ndarray] = []
+    keys = ("region", "material_local", "chamber_points", "clamped")
+    arrays: dict[str, list[np.ndarray]] = {k: [] for k in keys}
+    module, faces, face_module = [], [], []
+    starts_s: list[np.ndarray] = []
+    ends_s: list[np.ndarray] = []
+    entries: list[Module] = []
+    frames: list[tuple[np.ndarray, np.ndarray]] = []
+    source: list[str] = []
+    materials: list[Material] = []
+    first_entry: dict[tuple[str, int], int] = {}
+    entry_of: dict[str, int] = {}
+    offset = 0
+    main = None
+    for pl in _placements(branches):
+        sub = _series_mesh(pl.branch.modules, dens, half=False)
+        if main is None:
+            main = sub
+        P = pl.origin + (sub.points - pl.centre) @ pl.Q.T
+        pts.append(P)
+        cells.append(sub.cells + offset)
+        arrays["region"].append(sub.region)
+        mat = np.array([_index(materials, m) for m in sub.materials], dtype=np.int16)
+        arrays["material_local"].append(mat[sub.material])
+        arrays["chamber_points"].append(sub.chamber_points)
+        arrays["clamped"].append(sub.clamped if pl.branch.parent is None
+                                 else np.zeros(len(P), dtype=bool))
+        e0 = len(entries)
+        first_entry[(pl.branch.name, pl.copy)] = e0
+        module.append(sub.module + e0)
+        faces.append(sub.chamber_faces + offset)
+        face_module.append(sub.face_module + e0)
+        for i, m in enumerate(sub.modules):
+            name = m.name if pl.branch.count == 1 else f"{m.name}#{pl.copy}"
+            entries.append(replace(m, name=name))
+            source.append(m.name)
+            frames.append((pl.origin + pl.Q @ np.array([0.0, float(sub.starts[i]), 0.0]),
+                           pl.Q.copy()))
+            starts_s.append(sub.start_sections[i] + offset)
+            ends_s.append(sub.end_sections[i] + offset)
+            if pl.copy == 0:
+                entry_of[m.name] = e0 + i
+        offset += len(P)
+    assert main is not None
+    hubs = []
+    extra = []
+    for br in branches:
+        if br.parent is None:
+            continue
+        parent = entry_of[br.parent]
+        children = tuple(first_entry[(br.name, j)] for j in range(br.count))
+        tied = np.unique(np.concatenate([ends_s[parent], *(starts_s[c] for c in children)]))
+        at = frames[parent][0] + frames[parent][1] @ np.array(
+            [0.0, entries[parent].length, 0.0])
+        center, rotation = offset + len(extra), offset + len(extra) + 1
+        extra += [at, at]
+        hubs.append(Hub(tied, center, rotation, parent, children))
+    points = np.concatenate([*pts, np.array(extra).reshape(-1, 3)])
+    pad = np.zeros(len(extra), dtype=bool)
+    return DeviceMesh(
+        points=points, cells=np.concatenate(cells),
+        region=np.concatenate(arrays["region"]).astype(np.int8),
+        module=np.concatenate(module).astype(np.int16),
+        material=np.concatenate(arrays["material_local"]).astype(np.int16),
+        chamber_points=np.concatenate([*arrays["chamber_points"], pad]),
+        chamber_faces=np.concatenate(faces), face_module=np.concatenate(face_module),
+        clamped=np.concatenate([*arrays["clamped"], pad]),
+        mirror=np.zeros(len(points), dtype=bool),
+        start_sections=tuple(starts_s), end_sections=tuple(ends_s), starts=main.starts,
+        modules=tuple(entries), materials=tuple(materials), width=main.width,
+        height=main.height, half=False, density=dens, frames=tuple(frames),
+        hubs=tuple(hubs), source=tuple(source), tip_entry=len(main.modules) - 1)
+
+
+def _index(items: list[Material], item: Material) -> int:
+    """Index of ``item`` in ``items`` (appended if new)."""
+    if item not in items:
+        items.append(item)
+    return items.index(item)

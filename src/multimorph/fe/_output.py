@@ -300,6 +300,16 @@ def export_box_solid(outer: Sequence[Sequence[float]], inner: Sequence[Sequence[
     dx, dy, dz)`` in m) as STEP or STL (by suffix, CAD in mm) with gmsh OCC; ``affine`` is
     an optional row-major 3 × 4 map (m) applied to the solid; ``stl_size`` (m) is the
     largest STL facet edge."""
+    export_box_pieces([(outer, inner, affine)], path, stl_size)
+
+
+def export_box_pieces(pieces: Sequence[tuple[Sequence[Sequence[float]],
+                                             Sequence[Sequence[float]],
+                                             Sequence[float] | None]],
+                      path: Path, stl_size: float) -> None:
+    """Like :func:`export_box_solid` for several solids, each ``(outer, inner, affine)``,
+    fused into one shape (pieces that touch or overlap merge, the others stay separate
+    volumes of the file)."""
     gmsh = require("gmsh")
     initialised = gmsh.isInitialized()
     if not initialised:
@@ -309,15 +319,20 @@ def export_box_solid(outer: Sequence[Sequence[float]], inner: Sequence[Sequence[
         gmsh.model.add("solid")
         occ = gmsh.model.occ
         s = 1e3  # CAD in mm
-        boxes = [(3, occ.addBox(*(v * s for v in b))) for b in outer]
-        if len(boxes) > 1:
-            boxes, _ = occ.fuse(boxes[:1], boxes[1:])
-        holes = [(3, occ.addBox(*(v * s for v in b))) for b in inner]
-        solid, _ = occ.cut(boxes, holes) if holes else (boxes, None)
-        if affine is not None:
-            a = list(affine)
-            occ.affineTransform(solid, [*a[0:3], a[3] * s, *a[4:7], a[7] * s,
-                                        *a[8:11], a[11] * s])
+        solids = []
+        for outer, inner, affine in pieces:
+            boxes = [(3, occ.addBox(*(v * s for v in b))) for b in outer]
+            if len(boxes) > 1:
+                boxes, _ = occ.fuse(boxes[:1], boxes[1:])
+            holes = [(3, occ.addBox(*(v * s for v in b))) for b in inner]
+            solid, _ = occ.cut(boxes, holes) if holes else (boxes, None)
+            if affine is not None:
+                a = list(affine)
+                occ.affineTransform(solid, [*a[0:3], a[3] * s, *a[4:7], a[7] * s,
+                                            *a[8:11], a[11] * s])
+            solids += solid
+        if len(solids) > 1:
+            solids, _ = occ.fuse(solids[:1], solids[1:])
         occ.synchronize()
         if Path(path).suffix.lower() == ".stl":
             gmsh.option.setNumber("Mesh.MeshSizeMax", stl_size * s)

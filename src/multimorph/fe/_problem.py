@@ -169,6 +169,14 @@ class PressureProblem:
     fixed : ndarray (npoints, dim) of bool
         Fixed displacement components.
     kind : {"3d", "axisymmetric", "plane_strain"}
+    ties : sequence of (points, center, rotation)
+        Rigid joints (3d): FElupe ``MultiPointConstraint`` items that keep the arms from node
+        ``center`` to ``points`` up to the rotation whose rotation vector is the value at
+        node ``rotation`` (a node of no element). The rotation is the total one from the
+        undeformed state (FElupe's converged-rotation state is never advanced), which is
+        well defined below a full turn and keeps the problem free of hidden state.
+    tie_stiffness : float
+        The penalty of the ties (force per length, in the caller's units).
     """
 
     mesh: Any
@@ -176,6 +184,8 @@ class PressureProblem:
     pressure_mask: np.ndarray
     fixed: np.ndarray
     kind: str = "3d"
+    ties: Sequence[tuple[np.ndarray, int, int]] = ()
+    tie_stiffness: float = 0.0
     stats: AssemblyStats = field(default_factory=AssemblyStats)
 
     def __post_init__(self) -> None:
@@ -203,6 +213,12 @@ class PressureProblem:
             raise ValueError("no pressurised faces selected")
         bfield = fem.FieldContainer([field_cls(bregion, dim=dim)])
         self._pressure = fem.SolidBodyPressure(bfield, pressure=1.0)
+        if self.ties and not self.tie_stiffness > 0:
+            raise ValueError("ties need a positive tie_stiffness")
+        self._ties = [fem.MultiPointConstraint(self.field, np.asarray(pts), centerpoint=int(c),
+                                               rotationpoint=int(r),
+                                               multiplier=self.tie_stiffness)
+                      for pts, c, r in self.ties]
         self.fixed = np.asarray(self.fixed, dtype=bool).reshape(-1, dim)
         self.active = np.flatnonzero(~self.fixed.ravel())
         self.dim = dim
@@ -235,6 +251,8 @@ class PressureProblem:
         """Internal force vector (all DOF)."""
         t = time.perf_counter()
         r = sum(self._vec(b.vector()) for b in self._bodies)
+        for tie in self._ties:
+            r = r + self._vec(tie.assemble.vector(field=self.field))
         self.stats.vector_time += time.perf_counter() - t
         self.stats.vectors += 1
         return np.asarray(r)
@@ -288,7 +306,8 @@ class PressureProblem:
         t = time.perf_counter()
         mats = [b.matrix().tocsr() for b in self._bodies]
         mats.append(self._pressure.assemble.matrix(pressure=1.0).tocsr())
-        K = self._sum(mats, [1.0] * len(self._bodies) + [-p])
+        mats += [tie.assemble.matrix(field=self.field).tocsr() for tie in self._ties]
+        K = self._sum(mats, [1.0] * len(self._bodies) + [-p] + [1.0] * len(self._ties))
         self.stats.matrix_time += time.perf_counter() - t
         self.stats.matrices += 1
         return K
