@@ -91,6 +91,23 @@ def test_one_module_device_is_the_module() -> None:
     assert np.allclose(fe.tip_angle, r.path.extra["bend_angle"], atol=1e-12)
 
 
+def test_half_and_whole_models_measure_the_same_bend() -> None:
+    """The half model is the whole model's half, node for node, and the symmetric solution
+    is the same: completing a half section by the mirror images of its nodes *off* the
+    mirror plane gives the whole section, so both measure the same bend and stretch (to
+    round-off). Mirroring the on-plane nodes too weighted them twice and read a 4 % larger
+    bend on this coarse section (5 × 5 nodes) before stop 15."""
+    dev = Device((Module("finger", "bending", _bend_cell()),))
+    r = {half: simulate_device(dev, FESettings(mesh=DENS, method="pressure", p_max=0.2 * MU,
+                                               half=half)).responses["finger"].path
+         for half in (True, False)}
+    assert r[True].pressure[-1] == r[False].pressure[-1] == pytest.approx(0.2 * MU)
+    assert r[True].extra["bend_angle"][-1] == pytest.approx(r[False].extra["bend_angle"][-1],
+                                                            rel=1e-9)
+    assert r[True].axial_stretch[-1] == pytest.approx(r[False].axial_stretch[-1], rel=1e-9)
+    assert r[True].extra["bend_angle"][-1] > 0.05
+
+
 def test_mesh_tags_of_a_mixed_device() -> None:
     """Different cross-sections on one grid: chamber volume = the modules' chambers
     (divergence theorem, exact for the reference), material and region tags per module,
@@ -199,7 +216,6 @@ def test_stretching_module_stretches_without_bending() -> None:
 
 
 @pytest.mark.parametrize("change, field", [
-    (dict(kind="twisting", tilt=0.5, shaft_radius=3e-3), "kind"),
     (dict(count=3, radius=5e-3), "count"),
     (dict(orientation=math.pi / 2), "orientation"),
     (dict(start=25e-3), "start"),
@@ -453,3 +469,138 @@ def test_cli_fem_fingers_on_a_hub(tmp_path: Path, monkeypatch: pytest.MonkeyPatc
     # fingers 1 and 2 (at ±120°) touch the base's 10 × 6 mm end face and fuse with it,
     # finger 0 (7 mm out along z, 3 mm half height) clears it: two volumes
     assert len(vols) == 2 and total == pytest.approx(base + 3 * finger, rel=1e-9)
+
+
+def _twister(n_cells: int = 1) -> Module:
+    g = CellGeometry(10e-3, 10e-3, 8e-3, 1e-3, 2.5e-3, 1.5e-3, 1e-3, material=SOFT)
+    return Module("twister", "twisting", g, n_cells=n_cells, tilt=math.radians(30.0),
+                  shaft_radius=3.2e-3, strips=3)
+
+
+def test_a_twisting_module_as_a_device_is_the_module() -> None:
+    """A device of one twisting module is :func:`simulate_twisting_module`'s problem (the
+    same mesh and the same nondimensional problem): the same path, the same twist angle
+    (to round-off), and the same twist-rate sign convention."""
+    from multimorph.fe import simulate_twisting_module
+
+    tw = _twister()
+    s = FESettings(mesh=DENS, method="pressure", p_max=0.2 * MU)
+    fe = simulate_device(Device((tw,)), s)
+    ref = simulate_twisting_module(tw, s)
+    assert fe.stats["nfree"] == ref.stats["nfree"] and not fe.mesh.hubs
+    p = fe.responses["twister"].path
+    assert np.allclose(p.pressure, ref.pressure, rtol=0, atol=1e-9 * MU)
+    assert np.allclose(p.extra["twist_angle"], ref.twist_angle, rtol=0, atol=1e-9)
+    assert np.allclose(p.twist_rate, ref.response.path.twist_rate, rtol=0, atol=1e-9)
+    assert abs(ref.twist_angle[-1]) > math.radians(1.0)  # it twisted
+    assert fe.responses["twister"].characteristic.signal == "twist_rate"
+
+
+def test_fingers_on_a_twisting_module() -> None:
+    """Two fingers on the end of a twisting module (the gripper's layout, small): the hub
+    turns with the twister's end section (about the axis: its twist), and the fingers,
+    carried round, bend relative to their bases as a lone clamped finger does."""
+    dev = Device((_twister(), *_fingers_on(_twister()).modules[1:]))
+    m = device_mesh(dev, DENS)
+    assert [e.name for e in m.modules] == ["twister", "finger#0", "finger#1"]
+    assert m.clamped.sum() == len(m.start_sections[0]) and len(m.hubs) == 1
+    s = FESettings(mesh=DENS, method="pressure", p_max=0.2 * MU)
+    fe = simulate_device(dev, s)
+    alone = simulate_device(Device((Module("finger", "bending", _bend_cell()),)), s)
+    tw = fe.responses["twister"].path.extra["twist_angle"]
+    assert abs(tw[-1]) > math.radians(1.0)
+    assert np.allclose(fe.hub_rotation[:, 0], np.hypot(
+        tw, fe.responses["twister"].path.extra["bend_angle"]), rtol=2e-3, atol=1e-6)
+    a0, a1 = (fe.responses[f"finger#{j}"].path.extra["bend_angle"] for j in (0, 1))
+    assert np.allclose(a0, a1, rtol=1e-6, atol=1e-9)
+    ref = alone.responses["finger"].path
+    assert np.allclose(np.interp(ref.pressure, fe.pressure, a0), ref.extra["bend_angle"],
+                       rtol=1e-2, atol=1e-4)
+
+
+_TWIST_DEVICE = """
+[device]
+name = "small bend-then-twist"
+pmax = "20 kPa"
+
+[materials.soft]
+model = "gent"
+mu = "100 kPa"
+jm = 30
+
+[materials.stiff]
+model = "gent"
+mu = "1 MPa"
+jm = 30
+
+[cells.twist]
+length = "10 mm"
+width = "10 mm"
+height = "8 mm"
+top_wall = "1 mm"
+bottom_wall = "2.5 mm"
+side_wall = "1.5 mm"
+end_wall = "1 mm"
+material = "soft"
+
+[cells.finger]
+length = "10 mm"
+width = "8 mm"
+height = "6 mm"
+top_wall = "0.8 mm"
+bottom_wall = "1.5 mm"
+side_wall = "1 mm"
+end_wall = "1 mm"
+material = "soft"
+bottom_material = "stiff"
+
+[[module]]
+name = "twister"
+kind = "twisting"
+cell = "twist"
+cells = 1
+tilt = "30 deg"
+shaft_radius = "3.2 mm"
+strips = 3
+
+[[module]]
+name = "finger"
+kind = "bending"
+cell = "finger"
+cells = 1
+attach_to = "twister"
+count = 2
+radius = "5 mm"
+"""
+
+
+def test_cli_fem_device_with_a_twisting_module(tmp_path: Path,
+                                               monkeypatch: pytest.MonkeyPatch) -> None:
+    """A twisting module carrying two fingers through ``multimorph fem``: the twister's
+    twist is in the summary and in curves.csv, the fingers bend alike, and no STEP/STL is
+    written (tilted strips on a shaft are not boxes), which the JSON says."""
+    import csv
+
+    spec = tmp_path / "twist.toml"
+    spec.write_text(_TWIST_DEVICE)
+    monkeypatch.chdir(tmp_path)
+    out = tmp_path / "out"
+    from typer.testing import CliRunner
+
+    from multimorph.cli._app import _register, app
+    from multimorph.fe import MESH_PRESETS
+
+    _register()
+    monkeypatch.setitem(MESH_PRESETS, "coarse", DENS)
+    res = CliRunner().invoke(app, ["fem", str(spec), "--pmax", "10 kPa", "--method",
+                                   "pressure", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    assert "twist°" in res.output and "STEP/STL not written" in res.output
+    assert not (out / "device.step").exists() and (out / "curves.png").exists()
+    with open(out / "curves.csv") as fh:
+        rows = [r for r in csv.DictReader(fh) if float(r["pressure_pa"]) == 10e3]
+    last = {r["module"]: r for r in rows}
+    assert abs(float(last["twister"]["twist_angle_deg"])) > 0.5
+    assert float(last["twister"]["twist_rate_rad_per_m"]) > 0  # its own sense: positive
+    b0, b1 = (float(last[f"finger#{j}"]["bend_angle_deg"]) for j in (0, 1))
+    assert b0 > 0.5 and b1 == pytest.approx(b0, rel=1e-5)

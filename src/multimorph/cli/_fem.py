@@ -135,9 +135,10 @@ def fem(
                           "<out>.resume and start afresh.")] = False,
 ) -> None:
     """Inflate a cell (or a module of --cells cells in series) with 3D FE: path, Pc/Ph,
-    curves, VTU series, STEP/STL. A device spec ([device], [[module]]: bending and
-    stretching modules in series, orientation 0 or 180 deg) is meshed and inflated as one
-    body, each module measured on its own (Pc, Ph, bend angle, stretch).
+    curves, VTU series, STEP/STL. A device spec ([device], [[module]]: bending, stretching
+    and twisting modules in series, parallel branches such as fingers on a rigid hub) is
+    meshed and inflated as one problem, each module (and each copy) measured on its own
+    (Pc, Ph, bend and twist angle, stretch).
 
     Example: multimorph fem examples/fe_cell.toml --mesh medium --pmax "60 kPa" --out out/fe
 
@@ -325,13 +326,15 @@ def _fem_device(spec: Path, table: dict[str, Any], *, mesh: str, element_size: s
             w = csv.writer(fh)
             w.writerow(["module", "pressure_pa", "bend_angle_deg", "curvature_1_per_m",
                         "axial_stretch", "chamber_volume_m3", "volume_ratio", "peak_stretch",
-                        "stable"])
+                        "stable", "twist_angle_deg", "twist_rate_rad_per_m"])
             for name, r in result.responses.items():
                 p = r.path
                 cols = (p.pressure, math.degrees(1.0) * p.extra["bend_angle"], p.curvature,
                         p.axial_stretch, p.volume, p.extra["volume_ratio"], p.peak_stretch)
+                tw = (math.degrees(1.0) * p.extra["twist_angle"], p.twist_rate)
                 for i in range(len(p)):
-                    w.writerow([name, *(f"{c[i]:.8g}" for c in cols), int(p.stable[i])])
+                    w.writerow([name, *(f"{c[i]:.8g}" for c in cols), int(p.stable[i]),
+                                *(f"{c[i]:.8g}" for c in tw)])
         with open(tmp / "tip.csv", "w", newline="") as fh:
             w = csv.writer(fh)
             w.writerow(["pressure_pa", "tip_x_m", "tip_y_m", "tip_z_m", "tip_angle_deg",
@@ -344,11 +347,14 @@ def _fem_device(spec: Path, table: dict[str, Any], *, mesh: str, element_size: s
             write_json(tmp / "comparison.json", comparison)
             files.append("comparison.json")
         files += plot_device(result, tmp)
-        pieces = device_pieces(device)
-        edge = min(min(b[3:]) for outer, inner, _ in pieces for b in [*outer, *inner]) / 2
-        for name in ("device.step", "device.stl"):
-            export_box_pieces(pieces, tmp / name, edge)
-            files.append(name)
+        if all(m.kind != "twisting" for m in device.modules):
+            pieces = device_pieces(device)
+            edge = min(min(b[3:]) for outer, inner, _ in pieces for b in [*outer, *inner]) / 2
+            for name in ("device.step", "device.stl"):
+                export_box_pieces(pieces, tmp / name, edge)
+                files.append(name)
+        else:  # tilted strips on a shaft are not boxes: the VTU series has the geometry
+            info["cad"] = "not written: a twisting module's solid is not a union of boxes"
         if vtu:
             files += write_device_vtu(result, tmp)
         info["files"] = files
@@ -368,12 +374,12 @@ def _fem_device(spec: Path, table: dict[str, Any], *, mesh: str, element_size: s
                   f"({st['stop_reason'] or st['status']}){_resumed_note(st, ck)}",
                   highlight=False)
     head = (f"  {'module':<10} {'kind':<10} {'Pc':>6} {'Ph':>6} {'at P':>6} {'bend°':>6} "
-            f"{'stretch':>7}")
+            f"{'twist°':>6} {'stretch':>7}")
     if comparison is not None:
         head += f"  {'ROM Pc':>6} {'rel':>5} {'Ph':>6} {'rel':>5}"
-    console.print("modules (Pc, Ph in kPa, — not reached; bend towards the stiff layer and "
-                  "centroid stretch at P, the top of the module's stable loading curve):",
-                  highlight=False)
+    console.print("modules (Pc, Ph in kPa, — not reached; bend towards the stiff layer, twist "
+                  "about the axis and centroid stretch at P, the top of the module's stable "
+                  "loading curve):", highlight=False)
     console.print(head, highlight=False, soft_wrap=True)
     for m in result.mesh.modules:
         pc, ph = result.activation(m.name)
@@ -381,7 +387,7 @@ def _fem_device(spec: Path, table: dict[str, Any], *, mesh: str, element_size: s
         kind = f"{m.kind[:7]} {math.degrees(m.orientation):.0f}°"
         line = (f"  {m.name[:10]:<10} {kind:<10} {kpa(pc):>6} {kpa(ph):>6} "
                 f"{kpa(at['pressure']):>6} {math.degrees(at['bend_angle']):>6.1f} "
-                f"{at['axial_stretch']:>7.3f}")
+                f"{math.degrees(at['twist_angle']):>6.1f} {at['axial_stretch']:>7.3f}")
         if comparison is not None:
             k = comparison[m.name]
             line += (f"  {kpa(k['pc_rom']):>6} {_pct(k['pc_rel']):>5} {kpa(k['ph_rom']):>6} "
@@ -402,6 +408,8 @@ def _fem_device(spec: Path, table: dict[str, Any], *, mesh: str, element_size: s
     console.print(f"tip{where} at {result.pressure[-1] / 1e3:.3g} kPa: y = "
                   f"{result.tip[-1, 1] * 1e3:.2f} mm, z = {result.tip[-1, 2] * 1e3:.2f} mm, "
                   f"angle {math.degrees(result.tip_angle[-1]):.1f}°", highlight=False)
+    if "cad" in info:
+        console.print(f"STEP/STL {info['cad']}", highlight=False)
     console.print(f"files in {folder}/")
 
 

@@ -55,6 +55,7 @@ from multimorph.fe._measure import (
 from multimorph.fe._mesh import MeshDensity
 from multimorph.fe._problem import PressureProblem
 from multimorph.fe._solve import PathPoint
+from multimorph.fe._twist import _sense
 from multimorph.response import EquilibriumPath, Response, build_response
 
 __all__ = ["FE_MODULE_KINDS", "DeviceMesh", "FEDeviceResult", "compare_device", "device_mesh",
@@ -68,18 +69,21 @@ def _section_motion(X: np.ndarray, x: np.ndarray, s: np.ndarray, e: np.ndarray,
     their node centroids (m), in the frame whose axes are the columns of ``Q`` (default the
     mesh frame).
 
-    A half model's sections are completed by their mirror images (x → 2 x_m − x), so the
-    best-fit rotations are those of the whole sections: exactly about x, and composing
-    additively along the device.
+    A half model's sections are completed by the mirror images (x → 2 x_m − x) of their nodes
+    off the mirror plane, so the best-fit rotations are those of the whole sections, node
+    for node: exactly about x, composing additively along the device, and equal to the
+    whole model's.
     """
-    def whole(P: np.ndarray) -> np.ndarray:
+    def whole(P: np.ndarray, nodes: np.ndarray) -> np.ndarray:
         if Q is not None:
             P = P @ Q  # rows: coordinates along Q's columns
         if mirror_x is None:
             return P
-        return np.concatenate([P, P * [-1.0, 1.0, 1.0] + [2.0 * mirror_x, 0.0, 0.0]])
+        off = np.abs(X[nodes, 0] - mirror_x) > 1e-9 * max(abs(mirror_x), 1e-3)
+        return np.concatenate([P, P[off] * [-1.0, 1.0, 1.0] + [2.0 * mirror_x, 0.0, 0.0]])
 
-    Xs, xs, Xe, xe = whole(X[s]), whole(x[s]), whole(X[e]), whole(x[e])
+    Xs, xs = whole(X[s], s), whole(x[s], s)
+    Xe, xe = whole(X[e], e), whole(x[e], e)
     Rs = _kabsch(Xs, xs)
     bend, twist = bend_and_twist(Xe, xe @ Rs)  # rows rotated by Rsᵀ: Rsᵀ R_e
     chord = float(np.linalg.norm(xe[:, 1:].mean(0) - xs[:, 1:].mean(0)))
@@ -104,7 +108,12 @@ class _DeviceRecorder:
                                                      m.frames, strict=True)])
         # a hub's rotation node carries a rotation vector, not a displacement
         self.rotation_nodes = np.array([h.rotation for h in m.hubs], dtype=int)
-        self.sign = np.array([-1.0 if _flipped(mod) else 1.0 for mod in m.modules])
+        self.sign = np.array([-1.0 if _flipped(mod) and mod.kind != "twisting" else 1.0
+                              for mod in m.modules])
+        # a twisting module's own sense: positive twist rate for its tilt (as the twisting
+        # module FE and the reduced model read it)
+        self.twist_sense = np.array([-_sense(mod.tilt) if mod.kind == "twisting" else 1.0
+                                     for mod in m.modules])
         self.rows: list[dict[str, Any]] = []
         self.u: list[np.ndarray] = []
         self.cell_stretch: list[np.ndarray] = []
@@ -129,6 +138,7 @@ class _DeviceRecorder:
                 t = 0.0  # zero by the mirror symmetry
             if prev is not None:  # continuous along the path (a module may curl past 180°)
                 b += turn * round((prev["rel_bend"][i] - b) / turn)
+                t += turn * round((prev["twist"][i] - t) / turn)
             bend[i], twist[i] = b, t
             half = 0.5 * b
             arc = chord * (half / math.sin(half)) if abs(math.sin(half)) > 1e-12 else chord
@@ -185,16 +195,18 @@ class _DeviceRecorder:
         r = self.rows
         mod = self.mesh.modules[i]
         bend = self.sign[i] * np.array([row["rel_bend"][i] for row in r])
+        twist = np.array([row["twist"][i] for row in r])
         vol = np.array([row["volume"][i] for row in r])
         return EquilibriumPath(
             pressure=np.array([row["pressure"] for row in r]),
             curvature=bend / mod.length,
-            twist_rate=np.array([row["twist"][i] for row in r]) / mod.length,
+            twist_rate=self.twist_sense[i] * twist / mod.length,
             axial_stretch=np.array([row["stretch"][i] for row in r]),
             volume=vol, peak_stretch=np.array([row["peak"][i] for row in r]),
             stable=np.array([row["stable"] for row in r], dtype=bool),
             extra={"bend_angle": bend,
                    "bend_angle_device": self.sign[i] * bend,
+                   "twist_angle": twist,
                    "volume_ratio": vol / self.V0[i],
                    "peak_location": np.array([row["peak_location"][i] for row in r]),
                    "peak_region": np.array([row["peak_region"][i] for row in r]),
@@ -251,6 +263,7 @@ class FEDeviceResult:
         p = float(np.max(lo.pressure)) if pressure is None else pressure
         return {"pressure": p,
                 "bend_angle": float(np.interp(p, lo.pressure, lo.extra["bend_angle"])),
+                "twist_angle": float(np.interp(p, lo.pressure, lo.extra["twist_angle"])),
                 "axial_stretch": float(np.interp(p, lo.pressure, lo.axial_stretch))}
 
     def activation(self, name: str) -> tuple[float | None, float | None]:
@@ -278,6 +291,7 @@ class FEDeviceResult:
                 "activated": [v is not None for v in self.activation(m.name)],
                 "at_max_pressure": {"pressure_pa": at["pressure"],
                                     "bend_angle_deg": math.degrees(at["bend_angle"]),
+                                    "twist_angle_deg": math.degrees(at["twist_angle"]),
                                     "axial_stretch": at["axial_stretch"]},
                 "final": {"pressure_pa": float(p.pressure[-1]), **peak_summary(p)},
             }
@@ -388,7 +402,8 @@ def simulate_device(device: Device, settings: FESettings | None = None,
     responses = {
         m.name: build_response(rec.module_path(i), length=m.length, shear_modulus=m.cell.mu,
                                backend="fe", break_stretch=m.cell.material.break_stretch,
-                               meta={"module": m.name, "kind": m.kind}, signal=m.cell.signal)
+                               meta={"module": m.name, "kind": m.kind},
+                               signal="twist_rate" if m.kind == "twisting" else m.cell.signal)
         for i, m in enumerate(mods)}
     rows = rec.rows
     return FEDeviceResult(
@@ -482,8 +497,9 @@ def write_device_vtu(result: FEDeviceResult, folder: Any, stem: str = "device") 
 
 def plot_device(result: FEDeviceResult, folder: Any) -> list[str]:
     """``curves.png`` (pressure against every module's bend angle, centroid stretch and
-    V/V0, and the tip angle; each module's Pc marked) and ``snapshots.png`` (side views of
-    the deformed device, coloured by stretch) in ``folder``; returns the file names."""
+    V/V0, twisting modules' twist angle, and the tip angle; each module's Pc marked) and
+    ``snapshots.png`` (side views of the deformed device, coloured by stretch) in
+    ``folder``; returns the file names."""
     from pathlib import Path
 
     from multimorph.fe._output import plot_hex_snapshots, plot_path_panels
@@ -492,13 +508,17 @@ def plot_device(result: FEDeviceResult, folder: Any) -> list[str]:
     paths = {name: r.path for name, r in result.responses.items()}
     marks = [(pc, f"Pc {name}") for name in paths
              if (pc := result.activation(name)[0]) is not None]
+    panels = [("bend angle (°, module frame)",
+               {n: np.degrees(p.extra["bend_angle"]) for n, p in paths.items()}),
+              ("centroid stretch (-)", {n: p.axial_stretch for n, p in paths.items()}),
+              ("V / V0 (-)", {n: p.extra["volume_ratio"] for n, p in paths.items()}),
+              ("tip angle (°)", {"tip": np.degrees(result.tip_angle)})]
+    twisting = [m.name for m in result.mesh.modules if m.kind == "twisting"]
+    if twisting:
+        panels.insert(1, ("twist angle (°, about the axis)",
+                          {n: np.degrees(paths[n].extra["twist_angle"]) for n in twisting}))
     plot_path_panels(
-        result.pressure, result.stable,
-        [("bend angle (°, module frame)",
-          {n: np.degrees(p.extra["bend_angle"]) for n, p in paths.items()}),
-         ("centroid stretch (-)", {n: p.axial_stretch for n, p in paths.items()}),
-         ("V / V0 (-)", {n: p.extra["volume_ratio"] for n, p in paths.items()}),
-         ("tip angle (°)", {"tip": np.degrees(result.tip_angle)})],
+        result.pressure, result.stable, panels,
         folder / "curves.png", marks=marks,
         title=f"FE device {result.device.name} ({result.stats.get('nfree', '?')} DOF)")
     m = result.mesh

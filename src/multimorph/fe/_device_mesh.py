@@ -41,16 +41,21 @@ from multimorph.fe._mesh import (
 )
 from multimorph.materials import Material
 
-__all__ = ["FE_MODULE_KINDS", "DeviceMesh", "FEBranch", "Hub", "device_boxes", "device_mesh",
-           "device_pieces", "fe_device_branches", "fe_device_modules"]
+__all__ = ["FE_DEVICE_KINDS", "FE_MODULE_KINDS", "DeviceMesh", "FEBranch", "Hub", "device_boxes",
+           "device_mesh", "device_pieces", "fe_device_branches", "fe_device_modules"]
 
 
-#: Module kinds that the structured device mesh can hold.
+#: Module kinds that the structured device grid (one series of box cells) can hold.
 FE_MODULE_KINDS = ("bending", "stretching")
 
-_SUPPORTED = ("FE devices support branches of bending and stretching modules in series "
-              "(orientation 0 or 180 deg, each starting where the previous ends); a branch "
-              "attaches to the end of a module with one copy")
+#: Module kinds an FE device can hold (a twisting module is a mesh of its own, tied to its
+#: neighbours by rigid hubs).
+FE_DEVICE_KINDS = ("bending", "stretching", "twisting")
+
+_SUPPORTED = ("FE devices support branches of bending, stretching and twisting modules in "
+              "series (bending and stretching at orientation 0 or 180 deg, each starting "
+              "where the previous ends); a branch attaches to the end of a module with one "
+              "copy")
 
 
 @dataclass(frozen=True)
@@ -71,17 +76,17 @@ def fe_device_branches(device: Device) -> tuple[FEBranch, ...]:
     Raises
     ------
     SpecError
-        Naming the module and field for anything FE cannot hold: twisting modules, an
-        orientation other than 0° or 180°, a gap between modules of a branch, copies
+        Naming the module and field for anything FE cannot hold: a bending or stretching
+        module at an orientation other than 0° or 180°, a gap between modules of a branch, copies
         (``count`` > 1) on the clamped branch or differing within a branch, a branch attached
         to a module with copies.
     """
     for m in device.modules:
         where = f"module {m.name!r}"
-        if m.kind not in FE_MODULE_KINDS:
+        if m.kind not in FE_DEVICE_KINDS:
             raise SpecError(f"{where}.kind: {m.kind!r} is not supported by FE; {_SUPPORTED}")
         turn = math.remainder(m.orientation, math.pi)
-        if abs(turn) > 1e-9:
+        if m.kind != "twisting" and abs(turn) > 1e-9:
             raise SpecError(f"{where}.orientation: {math.degrees(m.orientation):.4g} deg is not "
                             f"supported by FE; {_SUPPORTED}")
     out: list[FEBranch] = []
@@ -120,18 +125,24 @@ def fe_device_branches(device: Device) -> tuple[FEBranch, ...]:
 
 
 def fe_device_modules(device: Device) -> tuple[Module, ...]:
-    """The device's modules in order along its one branch (a series device), checked for FE.
+    """The device's modules in order along its one branch, for one structured grid (a series
+    of bending and stretching modules), checked for FE.
 
     Raises
     ------
     SpecError
-        As :func:`fe_device_branches`, and for a device with more than one branch.
+        As :func:`fe_device_branches`, and for a device with more than one branch or with a
+        twisting module.
     """
     branches = fe_device_branches(device)
     if len(branches) != 1:
         names = ", ".join(b.name for b in branches)
         raise SpecError(f"module branch: the device has {len(branches)} branches ({names}); "
                         "this needs a single series of modules")
+    for m in branches[0].modules:
+        if m.kind not in FE_MODULE_KINDS:
+            raise SpecError(f"module {m.name!r}.kind: {m.kind!r}; one grid holds a series of "
+                            f"{' and '.join(FE_MODULE_KINDS)} modules")
     return branches[0].modules
 
 
@@ -324,39 +335,75 @@ def _rot_y(angle: float) -> np.ndarray:
     return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
 
 
+def _segments(mods: tuple[Module, ...]) -> list[tuple[Module, ...]]:
+    """A branch cut into meshable pieces: runs of bending and stretching modules (one grid
+    each) and single twisting modules (a strip-and-shaft mesh each)."""
+    out: list[tuple[Module, ...]] = []
+    for m in mods:
+        if m.kind != "twisting" and out and out[-1][-1].kind != "twisting":
+            out[-1] = (*out[-1], m)
+        else:
+            out.append((m,))
+    return out
+
+
 @dataclass(frozen=True)
 class _Placement:
-    """A branch copy in the mesh frame: local grid point p ↦ origin + Q (p − centre)."""
+    """A piece (a segment of a branch copy) in the mesh frame: local point p ↦ origin +
+    Q (p − centre), its start section at local y = 0 on the local axis through ``centre``.
+    ``parent`` is the module (name, copy 0) whose end it is tied to, ``None`` for the
+    clamped start of the main branch."""
 
     branch: FEBranch
     copy: int
+    modules: tuple[Module, ...]
     origin: np.ndarray
     Q: np.ndarray
     centre: np.ndarray
+    parent: tuple[str, int] | None
+
+    @property
+    def twisting(self) -> bool:
+        return self.modules[0].kind == "twisting"
+
+
+def _centre(seg: tuple[Module, ...]) -> np.ndarray:
+    """The axis of a piece's own mesh: (W/2, 0, H/2) of a grid, the origin of a twisting
+    module's mesh."""
+    if seg[0].kind == "twisting":
+        return np.zeros(3)
+    W, H, _ = _layout(seg)
+    return np.array([W / 2, 0.0, H / 2])
 
 
 def _placements(branches: tuple[FEBranch, ...]) -> list[_Placement]:
-    """Every branch copy placed as the reduced model places it: the clamped branch's grid
-    is the mesh frame; copy j of a branch starts at its parent's end section, turned by
-    2πj/count about the parent's axis and moved ``radius`` along the turned z."""
+    """Every piece placed as the reduced model places it. The clamped branch's first piece
+    is the mesh frame; pieces of a branch follow each other along its axis; copy j of an
+    attached branch starts at its parent's end section, turned by 2πj/count about the
+    parent's axis and moved ``radius`` along the turned z; a twisting module is turned by
+    its ``orientation`` about its own axis."""
     out: list[_Placement] = []
     end: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    axis0 = _centre(_segments(branches[0].modules)[0])
     for br in branches:
-        W, H, _ = _layout(br.modules)
-        centre = np.array([W / 2, 0.0, H / 2])
         for j in range(br.count):
             if br.parent is None:
-                origin, Q = centre.copy(), np.eye(3)
+                origin, Q = axis0.copy(), np.eye(3)
             else:
                 o, R = end[br.parent]
                 Q = R @ _rot_y(2.0 * math.pi * j / br.count)
                 origin = o + Q @ np.array([0.0, 0.0, br.radius])
-            out.append(_Placement(br, j, origin, Q, centre))
-            y = 0.0
-            for m in br.modules:
-                y += m.length
-                if j == 0:
-                    end[m.name] = (origin + Q @ np.array([0.0, y, 0.0]), Q)
+            parent = None if br.parent is None else (br.parent, 0)
+            for seg in _segments(br.modules):
+                Qp = Q @ _rot_y(seg[0].orientation) if seg[0].kind == "twisting" else Q
+                out.append(_Placement(br, j, seg, origin.copy(), Qp, _centre(seg), parent))
+                y = 0.0
+                for m in seg:
+                    y += m.length
+                    if j == 0:
+                        end[m.name] = (origin + Q @ np.array([0.0, y, 0.0]), Q)
+                origin = origin + Q @ np.array([0.0, y, 0.0])
+                parent = (seg[-1].name, j)
     return out
 
 
@@ -368,12 +415,14 @@ def _affine(pl: _Placement) -> list[float]:
 
 def device_pieces(device: Device) -> list[tuple[list[tuple[float, ...]], list[tuple[float, ...]],
                                                 list[float]]]:
-    """The device solid as pieces, one per branch copy: its outer and chamber boxes in its
-    own grid frame (:func:`device_boxes`' form) and the row-major 3 × 4 affine map (m) into
-    the mesh frame. Pieces touch only where the geometry makes them; FE joins them by rigid
-    hubs (see the module docstring)."""
-    return [(*_boxes(pl.branch.modules), _affine(pl))
-            for pl in _placements(fe_device_branches(device))]
+    """The device solid as pieces, one per grid (a series of bending and stretching modules
+    of a branch copy): its outer and chamber boxes in its own grid frame
+    (:func:`device_boxes`' form) and the row-major 3 × 4 affine map (m) into the mesh frame.
+    Twisting modules (tilted strips around a shaft, not boxes) are not among them. Pieces
+    touch only where the geometry makes them; FE joins them by rigid hubs (see the module
+    docstring)."""
+    return [(*_boxes(pl.modules), _affine(pl))
+            for pl in _placements(fe_device_branches(device)) if not pl.twisting]
 
 
 def device_mesh(device: Device, mesh: str | MeshDensity = "coarse", *,
@@ -399,7 +448,7 @@ def device_mesh(device: Device, mesh: str | MeshDensity = "coarse", *,
     """
     branches = fe_device_branches(device)
     dens = resolve_density(mesh, element_size)
-    if len(branches) == 1:
+    if len(branches) == 1 and all(m.kind in FE_MODULE_KINDS for m in branches[0].modules):
         return _series_mesh(branches[0].modules, dens, half)
     return _branched_mesh(branches, dens)
 
@@ -498,81 +547,103 @@ def _series_mesh(mods: tuple[Module, ...], dens: MeshDensity, half: bool) -> Dev
         density=dens)
 
 
+def _piece_mesh(pl: _Placement, dens: MeshDensity) -> dict[str, Any]:
+    """A piece's own mesh as the arrays the device mesh gathers (local frame)."""
+    if pl.twisting:
+        from multimorph.fe._twist_mesh import twisting_module_mesh
+
+        tm = twisting_module_mesh(pl.modules[0], dens)
+        return {"points": tm.points, "cells": tm.cells, "region": tm.region,
+                "module": np.zeros(len(tm.cells), dtype=np.int16),
+                "materials": tm.materials, "material": tm.material,
+                "chamber_points": tm.chamber_points, "chamber_faces": tm.chamber_faces,
+                "face_module": np.zeros(len(tm.chamber_faces), dtype=np.int16),
+                "clamped": tm.clamped, "starts": np.array([0.0, tm.length]),
+                "start_sections": (np.flatnonzero(tm.clamped),),
+                "end_sections": (tm.end_section,), "width": 0.0, "height": 0.0}
+    g = _series_mesh(pl.modules, dens, half=False)
+    return {k: getattr(g, k) for k in (
+        "points", "cells", "region", "module", "materials", "material", "chamber_points",
+        "chamber_faces", "face_module", "clamped", "starts", "start_sections", "end_sections",
+        "width", "height")}
+
+
 def _branched_mesh(branches: tuple[FEBranch, ...], dens: MeshDensity) -> DeviceMesh:
-    """Grids of every branch copy, placed in the mesh frame and joined by rigid hubs."""
-    pts: list[np.ndarray] = []
-    cells: list[np.ndarray] = []
-    keys = ("region", "material_local", "chamber_points", "clamped")
-    arrays: dict[str, list[np.ndarray]] = {k: [] for k in keys}
-    module, faces, face_module = [], [], []
+    """Meshes of every piece (grids and twisting modules), placed in the mesh frame and
+    joined by rigid hubs."""
+    parts: dict[str, list[np.ndarray]] = {k: [] for k in (
+        "points", "cells", "region", "material", "module", "chamber_points", "chamber_faces",
+        "face_module", "clamped")}
     starts_s: list[np.ndarray] = []
     ends_s: list[np.ndarray] = []
     entries: list[Module] = []
     frames: list[tuple[np.ndarray, np.ndarray]] = []
     source: list[str] = []
     materials: list[Material] = []
-    first_entry: dict[tuple[str, int], int] = {}
-    entry_of: dict[str, int] = {}
+    entry_of: dict[tuple[str, int], int] = {}
+    children: dict[tuple[str, int], list[int]] = {}
     offset = 0
-    main = None
+    main: dict[str, Any] | None = None
+    tip = 0
     for pl in _placements(branches):
-        sub = _series_mesh(pl.branch.modules, dens, half=False)
+        g = _piece_mesh(pl, dens)
         if main is None:
-            main = sub
-        P = pl.origin + (sub.points - pl.centre) @ pl.Q.T
-        pts.append(P)
-        cells.append(sub.cells + offset)
-        arrays["region"].append(sub.region)
-        mat = np.array([_index(materials, m) for m in sub.materials], dtype=np.int16)
-        arrays["material_local"].append(mat[sub.material])
-        arrays["chamber_points"].append(sub.chamber_points)
-        arrays["clamped"].append(sub.clamped if pl.branch.parent is None
-                                 else np.zeros(len(P), dtype=bool))
+            main = g
+        P = pl.origin + (g["points"] - pl.centre) @ pl.Q.T
         e0 = len(entries)
-        first_entry[(pl.branch.name, pl.copy)] = e0
-        module.append(sub.module + e0)
-        faces.append(sub.chamber_faces + offset)
-        face_module.append(sub.face_module + e0)
-        for i, m in enumerate(sub.modules):
+        mat = np.array([_index(materials, m) for m in g["materials"]], dtype=np.int16)
+        for key, val in (("points", P), ("cells", g["cells"] + offset),
+                         ("region", g["region"]), ("material", mat[g["material"]]),
+                         ("module", g["module"] + e0),
+                         ("chamber_points", g["chamber_points"]),
+                         ("chamber_faces", g["chamber_faces"] + offset),
+                         ("face_module", g["face_module"] + e0),
+                         ("clamped", g["clamped"] if pl.parent is None
+                          else np.zeros(len(P), dtype=bool))):
+            parts[key].append(val)
+        for i, m in enumerate(pl.modules):
             name = m.name if pl.branch.count == 1 else f"{m.name}#{pl.copy}"
             entries.append(replace(m, name=name))
             source.append(m.name)
-            frames.append((pl.origin + pl.Q @ np.array([0.0, float(sub.starts[i]), 0.0]),
+            frames.append((pl.origin + pl.Q @ np.array([0.0, float(g["starts"][i]), 0.0]),
                            pl.Q.copy()))
-            starts_s.append(sub.start_sections[i] + offset)
-            ends_s.append(sub.end_sections[i] + offset)
-            if pl.copy == 0:
-                entry_of[m.name] = e0 + i
+            starts_s.append(g["start_sections"][i] + offset)
+            ends_s.append(g["end_sections"][i] + offset)
+            entry_of[(m.name, pl.copy)] = e0 + i
+        if pl.parent is not None:
+            children.setdefault(pl.parent, []).append(e0)
+        if pl.branch.parent is None:
+            tip = len(entries) - 1
         offset += len(P)
     assert main is not None
     hubs = []
     extra = []
-    for br in branches:
-        if br.parent is None:
-            continue
-        parent = entry_of[br.parent]
-        children = tuple(first_entry[(br.name, j)] for j in range(br.count))
-        tied = np.unique(np.concatenate([ends_s[parent], *(starts_s[c] for c in children)]))
+    for key, kids in children.items():
+        parent = entry_of[key]
+        tied = np.unique(np.concatenate([ends_s[parent], *(starts_s[c] for c in kids)]))
         at = frames[parent][0] + frames[parent][1] @ np.array(
             [0.0, entries[parent].length, 0.0])
         center, rotation = offset + len(extra), offset + len(extra) + 1
         extra += [at, at]
-        hubs.append(Hub(tied, center, rotation, parent, children))
-    points = np.concatenate([*pts, np.array(extra).reshape(-1, 3)])
+        hubs.append(Hub(tied, center, rotation, parent, tuple(kids)))
+    points = np.concatenate([*parts["points"], np.array(extra).reshape(-1, 3)])
     pad = np.zeros(len(extra), dtype=bool)
+    main_mods = branches[0].modules
     return DeviceMesh(
-        points=points, cells=np.concatenate(cells),
-        region=np.concatenate(arrays["region"]).astype(np.int8),
-        module=np.concatenate(module).astype(np.int16),
-        material=np.concatenate(arrays["material_local"]).astype(np.int16),
-        chamber_points=np.concatenate([*arrays["chamber_points"], pad]),
-        chamber_faces=np.concatenate(faces), face_module=np.concatenate(face_module),
-        clamped=np.concatenate([*arrays["clamped"], pad]),
+        points=points, cells=np.concatenate(parts["cells"]),
+        region=np.concatenate(parts["region"]).astype(np.int8),
+        module=np.concatenate(parts["module"]).astype(np.int16),
+        material=np.concatenate(parts["material"]).astype(np.int16),
+        chamber_points=np.concatenate([*parts["chamber_points"], pad]),
+        chamber_faces=np.concatenate(parts["chamber_faces"]),
+        face_module=np.concatenate(parts["face_module"]).astype(np.int16),
+        clamped=np.concatenate([*parts["clamped"], pad]),
         mirror=np.zeros(len(points), dtype=bool),
-        start_sections=tuple(starts_s), end_sections=tuple(ends_s), starts=main.starts,
-        modules=tuple(entries), materials=tuple(materials), width=main.width,
-        height=main.height, half=False, density=dens, frames=tuple(frames),
-        hubs=tuple(hubs), source=tuple(source), tip_entry=len(main.modules) - 1)
+        start_sections=tuple(starts_s), end_sections=tuple(ends_s),
+        starts=np.concatenate([[0.0], np.cumsum([m.length for m in main_mods])]),
+        modules=tuple(entries), materials=tuple(materials), width=float(main["width"]),
+        height=float(main["height"]), half=False, density=dens, frames=tuple(frames),
+        hubs=tuple(hubs), source=tuple(source), tip_entry=tip)
 
 
 def _index(items: list[Material], item: Material) -> int:
