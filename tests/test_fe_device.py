@@ -7,6 +7,7 @@ every run to a few seconds with SuperLU.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -604,3 +605,26 @@ def test_cli_fem_device_with_a_twisting_module(tmp_path: Path,
     assert float(last["twister"]["twist_rate_rad_per_m"]) > 0  # its own sense: positive
     b0, b1 = (float(last[f"finger#{j}"]["bend_angle_deg"]) for j in (0, 1))
     assert b0 > 0.5 and b1 == pytest.approx(b0, rel=1e-5)
+
+
+def test_a_twisting_module_between_grids_is_tied_at_both_ends() -> None:
+    """bending → twisting → bending on the clamped branch: three pieces (grid, strips on a
+    shaft, grid) in series along y, joined by two rigid hubs at the twister's ends; only
+    the first piece is clamped; a device without a twisting module or a branch stays one
+    grid (no hubs)."""
+    g = _bend_cell()
+    a = Module("a", "bending", g)
+    tw = replace(_twister(), start=a.end)
+    b = Module("b", "bending", g, start=tw.end)
+    m = device_mesh(Device((a, tw, b)), DENS)
+    assert [e.name for e in m.modules] == ["a", "twister", "b"] and m.tip_entry == 2
+    assert [(h.parent, h.children) for h in m.hubs] == [(0, (1,)), (1, (2,))]
+    ys = [float(o[1]) for o, _ in m.frames]
+    assert ys == pytest.approx([0.0, 10e-3, 20e-3], abs=1e-12)
+    for h, y in zip(m.hubs, (10e-3, 20e-3), strict=True):
+        assert m.points[h.center, 1] == pytest.approx(y)
+        assert set(m.end_sections[h.parent]) | set(m.start_sections[h.children[0]]) == set(
+            h.points)
+    assert set(np.flatnonzero(m.clamped)) == set(m.start_sections[0])
+    assert np.all(m.module[m.region == 2] == 1)  # the shaft belongs to the twister
+    assert not device_mesh(Device((a, replace(b, start=a.end))), DENS).hubs

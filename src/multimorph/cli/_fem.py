@@ -109,7 +109,8 @@ def fem(
                       ] = "auto",
     solver: Annotated[str, typer.Option(help="Linear solver: auto, pardiso or superlu.")
                       ] = "auto",
-    full: Annotated[bool, typer.Option("--full", help="Mesh the whole cell, not half.")
+    full: Annotated[bool, typer.Option("--full", help="Mesh the whole cell (or series "
+                                                        "device), not half.")
                     ] = False,
     cells: Annotated[int, typer.Option(
         "--cells", help="Cells in series along the axis (a bending or stretching module "

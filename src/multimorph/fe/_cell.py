@@ -47,7 +47,9 @@ class FESettings:
     element_size : float, optional
         Explicit element edge length (m).
     half : bool
-        Mesh half the cell (mirror plane x = w/2).
+        Mesh half the cell (mirror plane x = w/2); for a device, half of a single series
+        of bending and stretching modules (a device with a twisting module or a parallel
+        branch is always meshed whole).
     p_max : float, optional
         Highest pressure (Pa); default the wall shear modulus μ.
     method : {"auto", "pressure", "arc-length"}
