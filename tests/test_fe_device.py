@@ -1,4 +1,5 @@
-"""FE devices: bending and stretching modules in series in one mesh, on one pressure line.
+"""FE devices on one pressure line: bending and stretching modules in series in one mesh,
+twisting modules and parallel branches (fingers) tied on by rigid hubs.
 
 Small cells (10 × 8 × 6 mm), one element through each wall, edges d/3 and low pressures keep
 every run to a few seconds with SuperLU.
