@@ -524,5 +524,6 @@ def plot_device(result: FEDeviceResult, folder: Any) -> list[str]:
     m = result.mesh
     plot_hex_snapshots(m.points, m.cells, result.displacements, result.stretch,
                        result.pressure, folder / "snapshots.png",
-                       title="side view (outer third of the half model)")
+                       title="side view (outer third of the half model)" if m.half
+                       else "side view (the third of the model at the smallest x)")
     return ["curves.png", "snapshots.png"]
