@@ -1,10 +1,11 @@
-"""3D FE of a device: bending and stretching modules in series and in parallel branches, on
-one pressure line.
+"""3D FE of a device: bending, stretching and twisting modules in series and in parallel
+branches, on one pressure line.
 
-One structured hexahedral grid holds each branch (:mod:`._device_mesh`: cross-sections
-centred on a common axis, the modules' cells in series from the branch's start, every
-chamber on the one pressure line). Parallel branches (fingers on a hub) are placed as the
-reduced model places them and tied to their parent's end by a rigid hub.
+One structured hexahedral grid holds each run of bending and stretching modules of a branch
+(:mod:`._device_mesh`: cross-sections centred on a common axis, the modules' cells in series
+from the branch's start, every chamber on the one pressure line); a twisting module is a
+strip-and-shaft mesh of its own. Pieces of a branch and parallel branches (fingers on a
+hub), placed as the reduced model places them, are tied together by rigid hubs.
 
 Each module is measured from node coordinates at every converged point, as the reference
 paper measured its FE devices: the bend angle is the rotation about x of its end section
@@ -330,10 +331,11 @@ def simulate_device(device: Device, settings: FESettings | None = None,
     Parameters
     ----------
     device : Device
-        Branches of bending and stretching modules, orientations 0° or 180°: one clamped
-        series, parallel branches tied to their parent's end by rigid hubs
-        (:func:`fe_device_branches`; anything else raises :class:`SpecError`). A branched
-        device is modelled whole (``settings.half`` applies to a series device only).
+        Branches of bending, stretching (orientations 0° or 180°) and twisting modules:
+        one clamped series, parallel branches tied to their parent's end by rigid hubs
+        (:func:`fe_device_branches`; anything else raises :class:`SpecError`). A device
+        with a twisting module or a parallel branch is modelled whole (``settings.half``
+        applies to a series of bending and stretching modules only).
     settings : FESettings, optional
         As for a cell; ``p_max`` defaults to the device's design pressure ``device.pmax``
         (Pa); the volume-ratio stop applies to each module's chambers, the stretch stop
