@@ -579,8 +579,8 @@ radius = "5 mm"
 def test_cli_fem_device_with_a_twisting_module(tmp_path: Path,
                                                monkeypatch: pytest.MonkeyPatch) -> None:
     """A twisting module carrying two fingers through ``multimorph fem``: the twister's
-    twist is in the summary and in curves.csv, the fingers bend alike, and no STEP/STL is
-    written (tilted strips on a shaft are not boxes), which the JSON says."""
+    twist is in the summary and in curves.csv, the fingers bend alike; no STEP is written
+    (tilted strips on a shaft are not boxes), and device.stl is the mesh's closed surface."""
     import csv
 
     spec = tmp_path / "twist.toml"
@@ -597,8 +597,26 @@ def test_cli_fem_device_with_a_twisting_module(tmp_path: Path,
     res = CliRunner().invoke(app, ["fem", str(spec), "--pmax", "10 kPa", "--method",
                                    "pressure", "--out", str(out)])
     assert res.exit_code == 0, res.output
-    assert "twist°" in res.output and "STEP/STL not written" in res.output
+    assert "twist°" in res.output and "device.step not written" in res.output
     assert not (out / "device.step").exists() and (out / "curves.png").exists()
+    # device.stl: the undeformed mesh's closed surface (every edge in two triangles), whose
+    # enclosed volume (divergence theorem over the triangles) is the mesh's
+    from multimorph.fe._output import hex_boundary
+
+    v = np.array([[float(t) for t in line.split()[1:4]]
+                  for line in (out / "device.stl").read_text().splitlines()
+                  if line.startswith("vertex")]).reshape(-1, 3, 3) / 1e3
+    vol_stl = float(np.einsum("ki,ki->k", v[:, 0], np.cross(v[:, 1], v[:, 2])).sum()) / 6
+    _, vid = np.unique(np.round(v.reshape(-1, 3) * 1e9), axis=0, return_inverse=True)
+    tri = vid.reshape(-1, 3)  # vertex ids (coordinates to the nm)
+    edges = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
+    _, count = np.unique(edges, axis=0, return_counts=True)
+    assert np.all(count == 2)
+    from multimorph.device import device_from_spec
+    from multimorph.io import load_toml
+
+    m = device_mesh(device_from_spec(load_toml(spec)), DENS)
+    assert vol_stl == pytest.approx(chamber_volume(m.points, hex_boundary(m.cells)), rel=1e-3)
     with open(out / "curves.csv") as fh:
         rows = [r for r in csv.DictReader(fh) if float(r["pressure_pa"]) == 10e3]
     last = {r["module"]: r for r in rows}

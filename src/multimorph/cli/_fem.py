@@ -300,7 +300,7 @@ def _fem_device(spec: Path, table: dict[str, Any], *, mesh: str, element_size: s
     from multimorph.fe import FESettings, compare_device, fe_device_branches, simulate_device
     from multimorph.fe._device import plot_device, write_device_vtu
     from multimorph.fe._device_mesh import device_pieces
-    from multimorph.fe._output import export_box_pieces
+    from multimorph.fe._output import export_box_pieces, hex_boundary, write_surface_stl
     from multimorph.io import atomic_output_dir, write_json
     from multimorph.units import to_si
 
@@ -354,8 +354,13 @@ def _fem_device(spec: Path, table: dict[str, Any], *, mesh: str, element_size: s
             for name in ("device.step", "device.stl"):
                 export_box_pieces(pieces, tmp / name, edge)
                 files.append(name)
-        else:  # tilted strips on a shaft are not boxes: the VTU series has the geometry
-            info["cad"] = "not written: a twisting module's solid is not a union of boxes"
+        else:  # tilted strips on a shaft are not boxes: the STL is the FE mesh's surface
+            m = result.mesh
+            write_surface_stl(m.points, hex_boundary(m.cells), tmp / "device.stl",
+                              name=device.name)
+            files.append("device.stl")
+            info["cad"] = ("device.step not written (a twisting module's solid is not a union "
+                           "of boxes); device.stl is the undeformed FE mesh's surface")
         if vtu:
             files += write_device_vtu(result, tmp)
         info["files"] = files
@@ -410,7 +415,7 @@ def _fem_device(spec: Path, table: dict[str, Any], *, mesh: str, element_size: s
                   f"{result.tip[-1, 1] * 1e3:.2f} mm, z = {result.tip[-1, 2] * 1e3:.2f} mm, "
                   f"angle {math.degrees(result.tip_angle[-1]):.1f}°", highlight=False)
     if "cad" in info:
-        console.print(f"STEP/STL {info['cad']}", highlight=False)
+        console.print(info["cad"], highlight=False)
     console.print(f"files in {folder}/")
 
 

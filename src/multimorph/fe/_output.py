@@ -23,8 +23,8 @@ from multimorph.fe._measure import peak_summary
 from multimorph.geometry import CellGeometry
 from multimorph.io import write_json
 
-__all__ = ["export_box_solid", "export_cell_solid", "plot_hex_snapshots", "plot_path_panels",
-           "summary", "write_fe_outputs"]
+__all__ = ["export_box_solid", "export_cell_solid", "hex_boundary", "plot_hex_snapshots",
+           "plot_path_panels", "summary", "write_fe_outputs", "write_surface_stl"]
 
 _CSV_COLUMNS = [
     ("pressure_pa", lambda p: p.pressure),
@@ -343,6 +343,39 @@ def export_box_pieces(pieces: Sequence[tuple[Sequence[Sequence[float]],
     finally:
         if not initialised:
             gmsh.finalize()
+
+
+def hex_boundary(cells: np.ndarray) -> np.ndarray:
+    """The boundary quads of a hexahedral mesh (faces of exactly one element), ordered
+    counter-clockwise seen from outside that element: their normals point away from the
+    material, out of the outer surface and into every cavity (chambers)."""
+    from multimorph.fe._mesh import _HEX_FACES
+
+    faces = cells[:, _HEX_FACES].reshape(-1, 4)
+    _, inv, count = np.unique(np.sort(faces, axis=1), axis=0, return_inverse=True,
+                              return_counts=True)
+    return faces[count[inv.ravel()] == 1]
+
+
+def write_surface_stl(points: np.ndarray, quads: np.ndarray, path: Path, *,
+                      name: str = "multimorph") -> None:
+    """Write quads (two triangles each, split along the diagonal 0–2) as ASCII STL in mm.
+
+    For the undeformed FE mesh of a solid this is its closed surface (outer skin and cavity
+    walls), which slicers and CAD tools open."""
+    P = np.asarray(points, dtype=float) * 1e3
+    tri = np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])
+    v = P[tri]
+    n = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    lines = [f"solid {name}"]
+    for nk, vk in zip(n, v, strict=True):
+        lines.append(f"facet normal {nk[0]:.9g} {nk[1]:.9g} {nk[2]:.9g}")
+        lines.append("outer loop")
+        lines += [f"vertex {a:.9g} {b:.9g} {c:.9g}" for a, b, c in vk]
+        lines += ["endloop", "endfacet"]
+    lines.append(f"endsolid {name}")
+    Path(path).write_text("\n".join(lines) + "\n")
 
 
 def write_fe_outputs(result: FEResult, folder: Path, *, vtu: bool = True, plots: bool = True,
