@@ -162,7 +162,7 @@ def test_flipped_modules_bend_in_opposite_senses() -> None:
     towards its stiff layer (positive); in the device frame they cancel, so the tip turns
     back towards the axis. The magnitudes differ only by the clamp, which stiffens the first
     module (a clamped module is 4–6 % stiffer on the reference cell, docs/fe.md; measured
-    here 6–10 % on this one-element-through-the-wall mesh)."""
+    here 3–5 % on this one-element-through-the-wall mesh)."""
     g = _bend_cell()
     dev = _series(("a", "bending", g, 2, 0.0), ("b", "bending", g, 2, math.pi))
     fe = simulate_device(dev, FESettings(mesh=DENS, p_max=0.2 * MU))
