@@ -647,3 +647,28 @@ def test_a_twisting_module_between_grids_is_tied_at_both_ends() -> None:
     assert set(np.flatnonzero(m.clamped)) == set(m.start_sections[0])
     assert np.all(m.module[m.region == 2] == 1)  # the shaft belongs to the twister
     assert not device_mesh(Device((a, replace(b, start=a.end))), DENS).hubs
+
+
+def test_fingers_on_a_trunk_resume_from_a_checkpoint(tmp_path: Path) -> None:
+    """The rigid hubs carry no state (total rotation vector), so an interrupted device with
+    fingers resumes on pressure steps to exactly the uninterrupted path: same pressures,
+    same displacements (hub nodes included), same hub rotation."""
+    from multimorph.fe import PathCheckpoint
+
+    dev = _fingers_on(Module("trunk", "bending", _bend_cell()))
+    s = FESettings(mesh=DENS, method="pressure", p_max=0.15 * MU)
+    full = simulate_device(dev, s)
+
+    def stop(p: float, n: int) -> None:
+        if n == 4:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        simulate_device(dev, s, checkpoint=PathCheckpoint(tmp_path, "key"), progress=stop)
+    ck = PathCheckpoint(tmp_path, "key")
+    again = simulate_device(dev, s, checkpoint=ck)
+    assert ck.resumed == 3 and again.stats["resumed_points"] == 3
+    assert np.array_equal(again.pressure, full.pressure)
+    assert np.allclose(again.displacements, full.displacements, rtol=0, atol=1e-12)
+    assert np.allclose(again.hub_rotation, full.hub_rotation, rtol=0, atol=1e-12)
+    assert full.hub_rotation[-1, 0] > 0.01
