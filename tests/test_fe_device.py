@@ -219,7 +219,6 @@ def test_stretching_module_stretches_without_bending() -> None:
 
 @pytest.mark.parametrize("change, field", [
     (dict(count=3, radius=5e-3), "count"),
-    (dict(orientation=math.pi / 2), "orientation"),
     (dict(start=25e-3), "start"),
 ])
 def test_unsupported_devices_are_refused(change: dict, field: str) -> None:
@@ -336,13 +335,14 @@ def test_cli_refuses_an_unsupported_device_and_writes_nothing(tmp_path: Path) ->
 
     _register()
     spec = Path(__file__).resolve().parents[1] / "examples" / "double_curvature.toml"
-    text = spec.read_text().replace('orientation = "180 deg"', 'orientation = "90 deg"', 1)
+    text = spec.read_text().replace('orientation = "180 deg"',
+                                    'orientation = "180 deg"\ncount = 2', 1)
     bad = tmp_path / "bad.toml"
     bad.write_text(text)
     out = tmp_path / "out"
     res = CliRunner().invoke(app, ["fem", str(bad), "--out", str(out), "--json"])
     assert res.exit_code == 2
-    assert "orientation" in res.output and "FE devices support" in res.output
+    assert ".count" in res.output and "FE devices support" in res.output
     assert not out.exists()
     res = CliRunner().invoke(app, ["fem", str(spec), "--cells", "2", "--out", str(out)])
     assert res.exit_code == 2 and "--cells" in res.output and not out.exists()
@@ -672,3 +672,30 @@ def test_fingers_on_a_trunk_resume_from_a_checkpoint(tmp_path: Path) -> None:
     assert np.allclose(again.displacements, full.displacements, rtol=0, atol=1e-12)
     assert np.allclose(again.hub_rotation, full.hub_rotation, rtol=0, atol=1e-12)
     assert full.hub_rotation[-1, 0] > 0.01
+
+
+def test_a_module_turned_by_90_degrees_is_a_turned_piece() -> None:
+    """A bending module at 90° cannot share the grid (its bending plane is not a grid
+    plane): it is its own grid, placed turned about its axis as the reduced model turns
+    it. Alone and clamped, it is the 0° module rotated: the same bend in its own frame (to
+    round-off); after a 0° module its end moves sideways (−x) as in the reduced model."""
+    from multimorph.device import simulate_device as rom_device
+
+    g = _bend_cell()
+    s = FESettings(mesh=DENS, method="pressure", p_max=0.15 * MU, half=False)
+    flat = simulate_device(Device((Module("m", "bending", g),)), s)
+    turned = simulate_device(Device((Module("m", "bending", g, orientation=math.pi / 2),)), s)
+    assert turned.mesh.frames[0][1] @ [0.0, 0.0, 1.0] == pytest.approx([1.0, 0.0, 0.0])
+    a0 = flat.responses["m"].path.extra["bend_angle"]
+    a1 = turned.responses["m"].path.extra["bend_angle"]
+    assert a0[-1] > 0.04 and np.allclose(a1, a0, rtol=1e-9, atol=1e-12)
+    # the stiff side of the turned module faces −x: its free end moves towards −x
+    assert turned.tip[-1, 0] < turned.tip[0, 0] - 1e-4
+    a = Module("a", "bending", g)
+    b = Module("b", "bending", g, start=a.end, orientation=math.pi / 2)
+    dev = Device((a, b))
+    fe = simulate_device(dev, s)
+    assert [h.children for h in fe.mesh.hubs] == [(1,)]
+    rom = rom_device(dev, 0.15 * MU).shape(0.15 * MU)
+    assert rom["b"][-1][0] < 0 and fe.tip[-1, 0] - fe.tip[0, 0] < -1e-4
+    assert fe.responses["b"].path.extra["bend_angle"][-1] > 0.04

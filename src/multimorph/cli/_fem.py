@@ -137,7 +137,8 @@ def fem(
 ) -> None:
     """Inflate a cell (or a module of --cells cells in series) with 3D FE: path, Pc/Ph,
     curves, VTU series, STEP/STL. A device spec ([device], [[module]]: bending, stretching
-    and twisting modules in series, parallel branches such as fingers on a rigid hub) is
+    and twisting modules in series at any orientation, parallel branches such as fingers on
+    a rigid hub) is
     meshed and inflated as one problem, each module (and each copy) measured on its own
     (Pc, Ph, bend and twist angle, stretch).
 

@@ -1,12 +1,12 @@
 """Finite-element verification (FElupe + contique + gmsh): the only room that imports them.
 
 Structured hexahedral meshes of a cell, a module, a tilted (twisting) strip
-(:func:`cell_mesh`), a device of modules in series (:func:`device_mesh`) or a twisting
-module of tilted strips around a shaft (:func:`twisting_module_mesh`), a nearly
-incompressible mixed
-u/p/J̄ model with the package's own material energies (through tensortrax), follower
-pressure on the chamber faces, pressure-controlled stepping with cutbacks and arc-length
-continuation through limit points, measurements from node coordinates, and the shared
+(:func:`cell_mesh`), a device (:func:`device_mesh`: modules in series, twisting modules
+and parallel branches tied on by rigid hubs) or a twisting module of tilted strips around a
+shaft (:func:`twisting_module_mesh`), a nearly incompressible mixed u/p/J̄ model with the
+package's own material energies (through tensortrax), follower pressure on the chamber
+faces, pressure-controlled stepping with cutbacks and arc-length continuation through
+limit points, measurements from node coordinates, and the shared
 :class:`~multimorph.response.Response` (``backend="fe"``).
 
 Heavy dependencies are imported inside functions; a missing one raises

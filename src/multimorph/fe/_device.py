@@ -40,6 +40,7 @@ from multimorph.fe._device_mesh import (
     FE_MODULE_KINDS,
     DeviceMesh,
     _flipped,
+    _in_grid,
     device_mesh,
     fe_device_branches,
     fe_device_modules,
@@ -109,7 +110,9 @@ class _DeviceRecorder:
                                                      m.frames, strict=True)])
         # a hub's rotation node carries a rotation vector, not a displacement
         self.rotation_nodes = np.array([h.rotation for h in m.hubs], dtype=int)
-        self.sign = np.array([-1.0 if _flipped(mod) and mod.kind != "twisting" else 1.0
+        # a module turned by 180° inside a grid bends towards −z of the grid's frame; a
+        # module placed turned (its own piece) is measured in its own turned frame
+        self.sign = np.array([-1.0 if _in_grid(mod) and _flipped(mod) else 1.0
                               for mod in m.modules])
         # a twisting module's own sense: positive twist rate for its tilt (as the twisting
         # module FE and the reduced model read it)
@@ -227,7 +230,9 @@ class FEDeviceResult:
         the bend angle over the module length in the module's own frame (positive towards
         its stiff layer), ``path.axial_stretch`` the centroid-arc stretch; ``path.extra``
         holds ``bend_angle`` (module frame, rad), ``bend_angle_device`` (device frame: a
-        module turned by 180° bends negative) and ``volume_ratio``.
+        module turned by 180° in a grid bends negative; a module turned by another angle
+        bends about its own turned axis, and this is its module-frame angle),
+        ``twist_angle`` (rad, about the axis) and ``volume_ratio``.
     pressure : ndarray (n,)
         Pressure at every path point (Pa).
     stable : ndarray (n,) of bool
@@ -331,11 +336,12 @@ def simulate_device(device: Device, settings: FESettings | None = None,
     Parameters
     ----------
     device : Device
-        Branches of bending, stretching (orientations 0° or 180°) and twisting modules:
-        one clamped series, parallel branches tied to their parent's end by rigid hubs
+        Branches of bending, stretching and twisting modules: one clamped series,
+        parallel branches tied to their parent's end by rigid hubs
         (:func:`fe_device_branches`; anything else raises :class:`SpecError`). A device
-        with a twisting module or a parallel branch is modelled whole (``settings.half``
-        applies to a series of bending and stretching modules only).
+        with a twisting module, a module turned by an angle other than 0° or 180°, or a
+        parallel branch is modelled whole (``settings.half`` applies to one series grid of
+        bending and stretching modules only).
     settings : FESettings, optional
         As for a cell; ``p_max`` defaults to the device's design pressure ``device.pmax``
         (Pa); the volume-ratio stop applies to each module's chambers, the stretch stop

@@ -53,9 +53,8 @@ FE_MODULE_KINDS = ("bending", "stretching")
 FE_DEVICE_KINDS = ("bending", "stretching", "twisting")
 
 _SUPPORTED = ("FE devices support branches of bending, stretching and twisting modules in "
-              "series (bending and stretching at orientation 0 or 180 deg, each starting "
-              "where the previous ends); a branch attaches to the end of a module with one "
-              "copy")
+              "series (each starting where the previous ends); a branch attaches to the end "
+              "of a module with one copy")
 
 
 @dataclass(frozen=True)
@@ -76,19 +75,15 @@ def fe_device_branches(device: Device) -> tuple[FEBranch, ...]:
     Raises
     ------
     SpecError
-        Naming the module and field for anything FE cannot hold: a bending or stretching
-        module at an orientation other than 0° or 180°, a gap between modules of a branch, copies
+        Naming the module and field for anything FE cannot hold: a gap between modules of a
+        branch, copies
         (``count`` > 1) on the clamped branch or differing within a branch, a branch attached
         to a module with copies.
     """
     for m in device.modules:
-        where = f"module {m.name!r}"
         if m.kind not in FE_DEVICE_KINDS:
-            raise SpecError(f"{where}.kind: {m.kind!r} is not supported by FE; {_SUPPORTED}")
-        turn = math.remainder(m.orientation, math.pi)
-        if m.kind != "twisting" and abs(turn) > 1e-9:
-            raise SpecError(f"{where}.orientation: {math.degrees(m.orientation):.4g} deg is not "
-                            f"supported by FE; {_SUPPORTED}")
+            raise SpecError(f"module {m.name!r}.kind: {m.kind!r} is not supported by FE; "
+                            f"{_SUPPORTED}")
     out: list[FEBranch] = []
     for name, mods in device.branches().items():
         parent = next((m.attach_to for m in mods if m.attach_to is not None), None)
@@ -143,6 +138,10 @@ def fe_device_modules(device: Device) -> tuple[Module, ...]:
         if m.kind not in FE_MODULE_KINDS:
             raise SpecError(f"module {m.name!r}.kind: {m.kind!r}; one grid holds a series of "
                             f"{' and '.join(FE_MODULE_KINDS)} modules")
+        if not _in_grid(m):
+            raise SpecError(f"module {m.name!r}.orientation: "
+                            f"{math.degrees(m.orientation):.4g} deg; one grid holds modules "
+                            f"at 0 or 180 deg")
     return branches[0].modules
 
 
@@ -335,16 +334,35 @@ def _rot_y(angle: float) -> np.ndarray:
     return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
 
 
+def _in_grid(m: Module) -> bool:
+    """Whether ``m`` can share a series grid: a bending or stretching module whose bending
+    plane is a grid plane (orientation 0° or 180°)."""
+    return (m.kind in FE_MODULE_KINDS
+            and abs(math.remainder(m.orientation, math.pi)) <= 1e-9)
+
+
 def _segments(mods: tuple[Module, ...]) -> list[tuple[Module, ...]]:
-    """A branch cut into meshable pieces: runs of bending and stretching modules (one grid
-    each) and single twisting modules (a strip-and-shaft mesh each)."""
+    """A branch cut into meshable pieces: runs of bending and stretching modules at 0° or
+    180° (one grid each) and single modules otherwise (a twisting module's strips on a
+    shaft, or the grid of a module turned by another angle, placed turned)."""
     out: list[tuple[Module, ...]] = []
     for m in mods:
-        if m.kind != "twisting" and out and out[-1][-1].kind != "twisting":
+        if _in_grid(m) and out and _in_grid(out[-1][-1]):
             out[-1] = (*out[-1], m)
         else:
             out.append((m,))
     return out
+
+
+def _turned(seg: tuple[Module, ...]) -> bool:
+    """A one-module piece that is placed turned by its orientation (its own grid unturned)."""
+    return not _in_grid(seg[0])
+
+
+def _grid_modules(seg: tuple[Module, ...]) -> tuple[Module, ...]:
+    """The modules a piece's grid is built from: a turned piece's module unturned (the
+    placement turns it)."""
+    return tuple(replace(m, orientation=0.0) for m in seg) if _turned(seg) else seg
 
 
 @dataclass(frozen=True)
@@ -380,8 +398,9 @@ def _placements(branches: tuple[FEBranch, ...]) -> list[_Placement]:
     """Every piece placed as the reduced model places it. The clamped branch's first piece
     is the mesh frame; pieces of a branch follow each other along its axis; copy j of an
     attached branch starts at its parent's end section, turned by 2πj/count about the
-    parent's axis and moved ``radius`` along the turned z; a twisting module is turned by
-    its ``orientation`` about its own axis."""
+    parent's axis and moved ``radius`` along the turned z; a module that is a piece of its
+    own (twisting, or bending at an angle other than 0° or 180°) is turned by its
+    ``orientation`` about its own axis."""
     out: list[_Placement] = []
     end: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     axis0 = _centre(_segments(branches[0].modules)[0])
@@ -395,7 +414,7 @@ def _placements(branches: tuple[FEBranch, ...]) -> list[_Placement]:
                 origin = o + Q @ np.array([0.0, 0.0, br.radius])
             parent = None if br.parent is None else (br.parent, 0)
             for seg in _segments(br.modules):
-                Qp = Q @ _rot_y(seg[0].orientation) if seg[0].kind == "twisting" else Q
+                Qp = Q @ _rot_y(seg[0].orientation) if _turned(seg) else Q
                 out.append(_Placement(br, j, seg, origin.copy(), Qp, _centre(seg), parent))
                 y = 0.0
                 for m in seg:
@@ -421,7 +440,7 @@ def device_pieces(device: Device) -> list[tuple[list[tuple[float, ...]], list[tu
     Twisting modules (tilted strips around a shaft, not boxes) are not among them. Pieces
     touch only where the geometry makes them; FE joins them by rigid hubs (see the module
     docstring)."""
-    return [(*_boxes(pl.modules), _affine(pl))
+    return [(*_boxes(_grid_modules(pl.modules)), _affine(pl))
             for pl in _placements(fe_device_branches(device)) if not pl.twisting]
 
 
@@ -448,7 +467,7 @@ def device_mesh(device: Device, mesh: str | MeshDensity = "coarse", *,
     """
     branches = fe_device_branches(device)
     dens = resolve_density(mesh, element_size)
-    if len(branches) == 1 and all(m.kind in FE_MODULE_KINDS for m in branches[0].modules):
+    if len(branches) == 1 and all(_in_grid(m) for m in branches[0].modules):
         return _series_mesh(branches[0].modules, dens, half)
     return _branched_mesh(branches, dens)
 
@@ -561,7 +580,7 @@ def _piece_mesh(pl: _Placement, dens: MeshDensity) -> dict[str, Any]:
                 "clamped": tm.clamped, "starts": np.array([0.0, tm.length]),
                 "start_sections": (np.flatnonzero(tm.clamped),),
                 "end_sections": (tm.end_section,), "width": 0.0, "height": 0.0}
-    g = _series_mesh(pl.modules, dens, half=False)
+    g = _series_mesh(_grid_modules(pl.modules), dens, half=False)
     return {k: getattr(g, k) for k in (
         "points", "cells", "region", "module", "materials", "material", "chamber_points",
         "chamber_faces", "face_module", "clamped", "starts", "start_sections", "end_sections",
