@@ -369,7 +369,7 @@ def _grid_modules(seg: tuple[Module, ...]) -> tuple[Module, ...]:
 class _Placement:
     """A piece (a segment of a branch copy) in the mesh frame: local point p ↦ origin +
     Q (p − centre), its start section at local y = 0 on the local axis through ``centre``.
-    ``parent`` is the module (name, copy 0) whose end it is tied to, ``None`` for the
+    ``parent`` is the module entry (name, copy) whose end it is tied to, ``None`` for the
     clamped start of the main branch."""
 
     branch: FEBranch
