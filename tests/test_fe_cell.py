@@ -298,3 +298,21 @@ def test_ctrl_c_inside_a_linear_solve_stops_continuation(monkeypatch: pytest.Mon
                       FESettings(mesh=MeshDensity(1, length_fraction=1 / 5), p_max=0.6 * MU,
                                  method="arc-length"))
     assert calls["n"] == 12 and calls["after"] == 0
+
+
+def test_path_end_rules() -> None:
+    """Where a path stops: past a limit point (with ``stop_after_limit``), at p_max on a
+    rising continuation point, and when continuation comes back through P = 0 (it retraced
+    the path: seen on a device whose two equal chambers passed their limit point)."""
+    from multimorph.fe._cell import path_end
+
+    rising = [0.0, 1.0, 2.0, 3.0]
+    assert path_end(rising, "pressure", 10.0, True) == ""
+    assert path_end([*rising, 2.9, 2.8, 2.7], "arc-length", 10.0, True) == (
+        "passed the limit point")
+    assert path_end([*rising, 2.9, 2.8, 2.7], "arc-length", 10.0, False) == ""
+    assert path_end([*rising, 10.5], "arc-length", 10.0, False) == "reached p_max"
+    assert path_end([*rising, 10.5, 10.4], "arc-length", 10.0, False) == ""
+    assert "turned back through P = 0" in path_end([*rising, 1.0, -0.1], "arc-length", 10.0,
+                                                   False)
+    assert path_end([0.0], "start", 10.0, False) == ""

@@ -148,7 +148,12 @@ _STRIP_KEYS = ("shear", "shear_slope", "strip_axial_strain", "strip_lateral_stra
 def path_end(pressures: list[float], method: str, p_max: float, after_limit: bool) -> str:
     """Why a path ends at its last recorded point ("" to go on): with ``after_limit``, once
     the pressure fell 0.5 % below its maximum with three points past it; on a continuation
-    point at or above ``p_max`` (Pa) with the pressure still rising."""
+    point at or above ``p_max`` (Pa) with the pressure still rising; at a negative pressure
+    (an inflation path that came back through P = 0 is continuation retracing its steps,
+    which it can do at a branch point such as two equal chambers past their limit point).
+    """
+    if len(pressures) > 1 and pressures[-1] < 0.0 < max(pressures):
+        return "turned back through P = 0 (the continuation retraced the path)"
     if after_limit:
         top = int(np.argmax(pressures))
         if pressures[-1] < 0.995 * pressures[top] and len(pressures) - top >= 3:
