@@ -316,3 +316,28 @@ def test_path_end_rules() -> None:
     assert "turned back through P = 0" in path_end([*rising, 1.0, -0.1], "arc-length", 10.0,
                                                    False)
     assert path_end([0.0], "start", 10.0, False) == ""
+
+
+def test_retraced_paths_are_told_from_folds() -> None:
+    """A path that turns round and walks back over its own states (sampled at other
+    points) is retraced; a path through a fold (the pressure falls but the state goes on
+    changing) and a path that only comes back to the same pressures elsewhere are not."""
+    from multimorph.fe._cell import retraced
+
+    s = np.linspace(0.0, 1.0, 12)
+    curve = np.column_stack([s, np.sin(2.0 * s), s**2])   # states along a smooth curve
+    P = list(3.0 * s - s**2)
+    back = np.linspace(0.95, 0.55, 5)                     # back over it, between samples
+    states = [*curve, *np.column_stack([back, np.sin(2.0 * back), back**2])]
+    Pb = P + list(3.0 * back - back**2)
+    assert retraced(Pb, states)
+    assert not retraced(Pb[:13], states[:13])             # one point back is not enough
+    # a fold: pressure falls, the state moves on (new third component)
+    fold_s = np.linspace(1.05, 1.4, 5)
+    fold = [*curve, *np.column_stack([fold_s, np.sin(2.0 * fold_s), 1.0 + 3.0 * (fold_s - 1)])]
+    Pf = P + list(2.0 - (fold_s - 1.0))
+    assert not retraced(Pf, fold)
+    # the same pressures again, far away in state
+    shifted = np.column_stack([back, np.sin(2.0 * back), back**2 + 5.0])
+    away = [*curve, *shifted]
+    assert not retraced(Pb, away)

@@ -239,8 +239,8 @@ strips = 3
 
 def test_cli_fem_module(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """``multimorph fem DEVICE.toml --module tw --json``: exit 0, the summary's keys and the
-    files; a module name that is not in the spec, or a bending module with a bending plane
-    FE cannot mesh: exit 2, the message names the option or field, nothing written."""
+    files; a module name that is not in the spec: exit 2, the message names the option,
+    nothing written; a bending module (here at 90°) goes the device route."""
     from typer.testing import CliRunner
 
     from multimorph.cli._app import _register, app
@@ -273,14 +273,15 @@ def test_cli_fem_module(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None
                                    str(tmp_path / "bad"), "--json"])
     assert bad.exit_code == 2 and "--module" in bad.output and "nope" in bad.output
     assert not (tmp_path / "bad").exists()
-    # a bending module goes the device route, which refuses a 90° bending plane by name
+    # a bending module goes the device route (a 90° bending plane: a turned piece)
     bend = tmp_path / "bend.toml"
     bend.write_text(_SPEC.replace('kind = "twisting"', 'kind = "bending"').replace(
         'tilt = "30 deg"', 'orientation = "90 deg"'))
-    bad = CliRunner().invoke(app, ["fem", str(bend), "--module", "tw", "--out",
-                                   str(tmp_path / "bad"), "--json"])
-    assert bad.exit_code == 2 and "'tw'.orientation" in bad.output
-    assert not (tmp_path / "bad").exists()
+    ok = CliRunner().invoke(app, ["fem", str(bend), "--module", "tw", "--method", "pressure",
+                                  "--pmax", "5 kPa", "--out", str(tmp_path / "b"), "--json"])
+    assert ok.exit_code == 0, ok.output
+    dev = json.loads(ok.output)["device"]["modules"]["tw"]
+    assert dev["kind"] == "bending" and dev["orientation_deg"] == pytest.approx(90.0)
 
 
 def test_module_spec_validation_reaches_fe() -> None:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
@@ -145,15 +145,54 @@ _STRIP_KEYS = ("shear", "shear_slope", "strip_axial_strain", "strip_lateral_stra
                "strip_rotation")
 
 
-def path_end(pressures: list[float], method: str, p_max: float, after_limit: bool) -> str:
+def retraced(pressures: Sequence[float], states: Sequence[np.ndarray], *, rel: float = 0.1,
+             skip: int = 4) -> bool:
+    """Whether the last two points lie back on the path already traced: each within
+    ``rel`` of its own step length from a segment between two earlier points (not among
+    its ``skip`` predecessors) whose pressure range holds its pressure.
+
+    Continuation retraces a path when it turns round at a branch point (e.g. two equal
+    chambers on one line past their limit point); a fold does not trigger it (past a limit
+    point the states go on changing)."""
+    k = len(states) - 1
+    if k < skip + 2:
+        return False
+    for i in (k, k - 1):
+        x, p = np.ravel(states[i]), pressures[i]
+        step = float(np.linalg.norm(x - np.ravel(states[i - 1])))
+        if step == 0.0:
+            return False
+        near = False
+        for j in range(i - skip):
+            lo, hi = sorted((pressures[j], pressures[j + 1]))
+            if not lo - 1e-12 * abs(p) <= p <= hi + 1e-12 * abs(p):
+                continue
+            a, b = np.ravel(states[j]), np.ravel(states[j + 1])
+            d = b - a
+            dd = float(d @ d)
+            t = min(max(float((x - a) @ d) / dd, 0.0), 1.0) if dd > 0 else 0.0
+            if np.linalg.norm(a + t * d - x) < rel * step:
+                near = True
+                break
+        if not near:
+            return False
+    return True
+
+
+def path_end(pressures: list[float], method: str, p_max: float, after_limit: bool,
+             states: Sequence[np.ndarray] | None = None) -> str:
     """Why a path ends at its last recorded point ("" to go on): with ``after_limit``, once
     the pressure fell 0.5 % below its maximum with three points past it; on a continuation
     point at or above ``p_max`` (Pa) with the pressure still rising; at a negative pressure
     (an inflation path that came back through P = 0 is continuation retracing its steps,
-    which it can do at a branch point such as two equal chambers past their limit point).
+    which it can do at a branch point such as two equal chambers past their limit point);
+    on a continuation point back on the path already traced (:func:`retraced`, given the
+    recorded ``states``).
     """
     if len(pressures) > 1 and pressures[-1] < 0.0 < max(pressures):
         return "turned back through P = 0 (the continuation retraced the path)"
+    if states is not None and method == "arc-length" and retraced(pressures, states):
+        return "retraced the path (continuation turned round, e.g. at a branch point)"
     if after_limit:
         top = int(np.argmax(pressures))
         if pressures[-1] < 0.995 * pressures[top] and len(pressures) - top >= 3:
@@ -238,7 +277,7 @@ class _Recorder:
             self.stop_reason = f"peak stretch exceeded {self.max_stretch:g}"
             return True
         self.stop_reason = path_end([row["pressure"] for row in self.rows], pt.method,
-                                    self.p_max, self.stop_after_limit)
+                                    self.p_max, self.stop_after_limit, self.u)
         return bool(self.stop_reason)
 
     def path(self) -> EquilibriumPath:

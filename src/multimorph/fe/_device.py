@@ -191,7 +191,7 @@ class _DeviceRecorder:
             self.stop_reason = f"peak stretch exceeded {self.max_stretch:g}"
             return True
         self.stop_reason = path_end([row["pressure"] for row in self.rows], pt.method,
-                                    self.p_max, self.s.stop_after_limit)
+                                    self.p_max, self.s.stop_after_limit, self.u)
         return bool(self.stop_reason)
 
     def module_path(self, i: int) -> EquilibriumPath:

@@ -121,7 +121,7 @@ class _TwistRecorder:
             self.stop_reason = f"peak stretch exceeded {self.max_stretch:g}"
             return True
         self.stop_reason = path_end([row["pressure"] for row in self.rows], pt.method,
-                                    self.p_max, self.s.stop_after_limit)
+                                    self.p_max, self.s.stop_after_limit, self.u)
         return bool(self.stop_reason)
 
     def path(self) -> EquilibriumPath:
