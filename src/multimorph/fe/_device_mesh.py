@@ -41,8 +41,8 @@ from multimorph.fe._mesh import (
 )
 from multimorph.materials import Material
 
-__all__ = ["FE_DEVICE_KINDS", "FE_MODULE_KINDS", "DeviceMesh", "FEBranch", "Hub", "device_boxes",
-           "device_mesh", "device_pieces", "fe_device_branches", "fe_device_modules"]
+__all__ = ["FE_DEVICE_KINDS", "FE_MODULE_KINDS", "DeviceMesh", "FEBranch", "Hub", "device_mesh",
+           "device_pieces", "fe_device_branches", "fe_device_modules"]
 
 
 #: Module kinds that the structured device grid (one series of box cells) can hold.
@@ -320,14 +320,6 @@ def _boxes(mods: tuple[Module, ...]) -> tuple[list[tuple[float, ...]], list[tupl
     return outer, inner
 
 
-def device_boxes(device: Device) -> tuple[list[tuple[float, ...]], list[tuple[float, ...]]]:
-    """The solid of a series device as boxes (m, the FE mesh's frame: y along the axis from
-    the clamped end): one outer box per module and one box per chamber, each
-    ``(x, y, z, dx, dy, dz)``. The solid is the union of the outer boxes minus the
-    chambers. A branched device: :func:`device_pieces`."""
-    return _boxes(fe_device_modules(device))
-
-
 def _rot_y(angle: float) -> np.ndarray:
     """Rotation by ``angle`` about y (the reduced model's placement of parallel copies)."""
     c, s = math.cos(angle), math.sin(angle)
@@ -436,7 +428,9 @@ def device_pieces(device: Device) -> list[tuple[list[tuple[float, ...]], list[tu
                                                 list[float]]]:
     """The device solid as pieces, one per grid (a series of bending and stretching modules
     of a branch copy): its outer and chamber boxes in its own grid frame
-    (:func:`device_boxes`' form) and the row-major 3 × 4 affine map (m) into the mesh frame.
+    (each ``(x, y, z, dx, dy, dz)``; the solid is the union of the outer boxes minus the
+    chambers) and the row-major 3 × 4 affine map (m) into the mesh frame. A series device is
+    one piece with the identity map.
     Twisting modules (tilted strips around a shaft, not boxes) are not among them. Pieces
     touch only where the geometry makes them; FE joins them by rigid hubs (see the module
     docstring)."""
