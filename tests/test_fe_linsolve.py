@@ -76,3 +76,26 @@ def test_superlu_symmetric_mode_solves_indefinite_systems_and_falls_back() -> No
     y = s.solve(S, c)
     assert np.linalg.norm(S @ y - c) <= 1e-10 * np.linalg.norm(c)
     assert s.pivoted_refactorisations == 1
+
+
+@pytest.mark.parametrize("kind", ["superlu", pytest.param("pardiso", marks=needs_pardiso)])
+def test_inertia_counts_the_negative_eigenvalues(kind: str) -> None:
+    """The stability of an FE path point is read from the inertia of its tangent. The
+    shifted Laplacian's eigenvalues are known in closed form (λ_ij = 4 − 2 cos(iπ/(n+1))
+    − 2 cos(jπ/(n+1)) + shift), so the count of negative ones is exact. SuperLU's inertia
+    comes from its symmetric-mode factors (Sylvester's law), PARDISO reports its own; a
+    factorisation with off-diagonal pivots tells nothing (None)."""
+    n = 20
+    c = 2.0 * np.cos(np.arange(1, n + 1) * np.pi / (n + 1))
+    lam = 4.0 - c[:, None] - c[None, :]
+    s = make_solver(kind)
+    for shift in (0.5, -0.37, -1.3, -4.1):
+        s.solve(_laplacian(n, shift), np.ones(n * n))
+        neg = int(np.count_nonzero(lam + shift < 0))
+        assert s.inertia == (n * n - neg, neg)
+    if kind == "superlu":
+        m = 50
+        B = sp.diags([1.0, 0.3], [0, 1], shape=(m, m))
+        S = sp.bmat([[1e-14 * sp.identity(m), B.T], [B, None]]).tocsr()
+        s.solve(S, np.ones(2 * m))
+        assert s.pivoted_refactorisations == 1 and s.inertia is None

@@ -92,7 +92,8 @@ class LinearSolver:
     name: str
     time: float = 0.0
     calls: int = 0
-    #: (positive, negative) eigenvalue counts of the last factorised matrix (PARDISO only)
+    #: (positive, negative) eigenvalue counts of the last factorised matrix (PARDISO, or
+    #: SuperLU factors with diagonal pivots; None where the factorisation does not tell)
     inertia: tuple[int, int] | None = None
     #: symbolic analyses done (PARDISO; one per distinct sparsity pattern)
     analyses: int = 0
@@ -196,12 +197,14 @@ class LinearSolver:
                     self._values = Kc.data.copy()
                     self._knorm = _inf_norm(Kc)
                     self.factorisations += 1
+                    self.inertia = _lu_inertia(self._lu)
                 x = self._lu.solve(b)
                 if not _accurate(Kc, self._knorm, x, b):
                     # a small diagonal pivot spoilt the symmetric-mode factors: partial
                     # pivoting (SuperLU's default), slower but safe
                     self._lu = spla.splu(Kc)
                     self.pivoted_refactorisations += 1
+                    self.inertia = None
                     x = self._lu.solve(b)
         finally:
             self.time += time.perf_counter() - t
@@ -223,6 +226,22 @@ def _splu_symmetric(K: sp.csc_matrix) -> Any:
     """
     return spla.splu(K, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
                      options={"SymmetricMode": True})
+
+
+def _lu_inertia(lu: Any) -> tuple[int, int] | None:
+    """(positive, negative) eigenvalue counts of a symmetric matrix from its symmetric-mode
+    SuperLU factors, or None where they do not tell.
+
+    With diagonal pivots and one permutation for rows and columns, Pᵀ K P = L U with
+    U = D Lᵀ, so K and D are congruent and (Sylvester's law of inertia) have the same
+    eigenvalue signs: the signs of U's diagonal. A factorisation that permuted rows and
+    columns differently (an off-diagonal pivot) is not such a congruence.
+    """
+    if not np.array_equal(lu.perm_r, lu.perm_c):
+        return None
+    d = lu.U.diagonal()
+    neg = int(np.count_nonzero(d < 0))
+    return len(d) - neg - int(np.count_nonzero(d == 0)), neg
 
 
 def _inf_norm(K: sp.spmatrix) -> float:
