@@ -341,3 +341,89 @@ def test_retraced_paths_are_told_from_folds() -> None:
     shifted = np.column_stack([back, np.sin(2.0 * back), back**2 + 5.0])
     away = [*curve, *shifted]
     assert not retraced(Pb, away)
+
+
+def test_a_path_that_turns_round_restarts_from_its_turning_point(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Continuation that turns round and walks back is restarted from the turning point:
+    the points that walked back are dropped (from the run, the recorder and the
+    checkpoint); contique restarts there with the rising pressure in control, and, when
+    that turns round too, one secant step ahead in the direction of the step that reached
+    the turning point; the path goes on from there. The continuation here is scripted (a
+    curve in a 3-component state), so only the bookkeeping is tested; docs/fe.md has the
+    FE device this was built for."""
+    from multimorph.fe import _cell
+    from multimorph.fe._checkpoint import PathCheckpoint
+    from multimorph.fe._solve import PathPoint, PathRun
+
+    def curve(t: float) -> tuple[np.ndarray, float]:
+        return np.array([t, np.sin(2.0 * t), t * t]), 3.0 * t - t * t
+
+    class Problem:
+        nfree = 3
+
+        def __init__(self) -> None:
+            self.x = np.zeros(3)
+
+        def get_x(self) -> np.ndarray:
+            return self.x.copy()
+
+        def set_x(self, x: np.ndarray) -> None:
+            self.x = np.array(x, dtype=float)
+
+    starts: list[tuple[np.ndarray, float, np.ndarray | None]] = []
+
+    def scripted(problem, p_start, solver, *, on_point, direction=None, **_):
+        """Call 1: forward to t = 1.0, then back over the path; call 2 (from t = 1.0):
+        straight back; call 3: forward from where it was started, on to t = 1.6."""
+        starts.append((problem.get_x(), p_start, direction))
+        run = PathRun()
+        ts = {1: [*np.linspace(0.1, 1.0, 10), *np.linspace(0.92, 0.5, 6)],
+              2: list(np.linspace(0.95, 0.5, 8))}.get(
+                  len(starts), list(np.linspace(problem.get_x()[0] + 0.1, 1.6, 5)))
+        for t in ts:
+            x, p = curve(float(t))
+            pt = PathPoint(p, x, 3, True, "arc-length")
+            run.points.append(pt)
+            if on_point(pt):
+                run.status = "stopped"
+                return run
+        run.status = "max_steps"
+        return run
+
+    monkeypatch.setattr(_cell, "continuation", scripted)
+
+    class Recorder:
+        def __init__(self) -> None:
+            self.rows: list[float] = [0.0]
+            self.u: list[np.ndarray] = [np.zeros(3)]
+            self.cell_stretch: list[int] = [0]
+            self.stop_reason = ""
+
+        def add(self, pt: PathPoint) -> bool:
+            self.rows.append(pt.pressure)
+            self.u.append(pt.x)
+            self.cell_stretch.append(0)
+            return False
+
+    rec = Recorder()
+    ck = PathCheckpoint(tmp_path / "ck", "k")
+    run = _cell.trace_path(Problem(), None, FESettings(method="arc-length"), 10.0, rec.add,
+                           checkpoint=ck, truncate=lambda n: _cell.drop_points(rec, n))
+    assert run.restarts == 2 and len(starts) == 3
+    x9, p9 = curve(0.9)
+    x10, p10 = curve(1.0)
+    # the first restart: at the turning point (t = 1.0), rising pressure in control
+    np.testing.assert_allclose(starts[1][0], x10)
+    assert starts[1][1] == pytest.approx(p10) and starts[1][2] is None
+    # the second: one secant step past it, in the direction of the step that reached it
+    x0, p0, d = starts[2]
+    np.testing.assert_allclose(x0, 2 * x10 - x9)
+    assert p0 == pytest.approx(2 * p10 - p9)
+    np.testing.assert_allclose(d, np.append(x10 - x9, p10 - p9))
+    # the recorded path: forward to t = 1.0, none of the points that walked back, then on
+    t = [float(x[0]) for x in rec.u[1:]]
+    assert np.all(np.diff(t) > 0) and t[9] == pytest.approx(1.0) and t[-1] == pytest.approx(1.6)
+    assert len(rec.rows) == len(rec.u) == len(rec.cell_stretch) == len(run.points) + 1
+    kept = ck.load(3)
+    assert [p.pressure for p in kept] == [p.pressure for p in run.points]

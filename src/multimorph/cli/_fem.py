@@ -86,7 +86,9 @@ def _density(mesh: str, size: float | None, wall_elements: int | None) -> Any:
 
 def _resumed_note(stats: dict[str, Any], ck: Any) -> str:
     n = int(stats.get("resumed_points", 0))
-    return f"; resumed from {n} saved points" if n else ""
+    k = int(stats.get("restarts", 0))
+    return ((f"; resumed from {n} saved points" if n else "")
+            + (f"; continuation restarted {k}× where it had turned round" if k else ""))
 
 
 def fem(

@@ -302,13 +302,61 @@ def _merge(a: PathRun, b: PathRun) -> PathRun:
     a.wall_time += b.wall_time
     a.tangents_reused += b.tangents_reused
     a.chord_steps += b.chord_steps
+    a.restarts += b.restarts
     a.status, a.message = b.status, b.message
     return a
 
 
+#: how a path that turned round is restarted from its turning point, in turn: rising
+#: pressure in control (contique's start), then secant jumps of one and two steps ahead in
+#: the direction of the step that reached it
+RETRACE_RESTARTS: tuple[float | None, ...] = (None, 1.0, 2.0)
+
+
+class _TurnWatch:
+    """The states of a path as recorded, to catch continuation turning round (see
+    :func:`retraced`) before the point that shows it is recorded."""
+
+    def __init__(self, x_start: np.ndarray) -> None:
+        self.pressures = [0.0]
+        self.states = [np.asarray(x_start)]
+        self.pending: PathPoint | None = None
+        self.restarts = 0
+
+    def accept(self, pt: PathPoint) -> None:
+        self.pressures.append(pt.pressure)
+        self.states.append(pt.x)
+
+    def turns(self, pt: PathPoint) -> bool:
+        return retraced([*self.pressures, pt.pressure], [*self.states, pt.x])
+
+    def apex(self) -> int:
+        """How many recorded points to keep: up to the last one where the path's direction
+        reversed (the turning point), before the points that walk back."""
+        s = [*self.states, self.pending.x] if self.pending is not None else self.states
+        for m in range(len(s) - 2, 0, -1):
+            if float((s[m + 1] - s[m]) @ (s[m] - s[m - 1])) < 0.0:
+                return m
+        return max(len(self.states) - 3, 1)
+
+    def cut(self, n: int) -> None:
+        del self.pressures[n + 1:]
+        del self.states[n + 1:]
+        self.pending = None
+
+
+def drop_points(recorder: Any, n: int) -> None:
+    """Keep a recorder's start row and its first ``n`` path points (``rows``, ``u``,
+    ``cell_stretch``)."""
+    for name in ("rows", "u", "cell_stretch"):
+        del getattr(recorder, name)[n + 1:]
+    recorder.stop_reason = ""
+
+
 def trace_path(problem: PressureProblem, solver: LinearSolver, settings: FESettings,
                p_end: float, on_point: Callable[[PathPoint], bool], *,
-               checkpoint: PathCheckpoint | None = None) -> PathRun:
+               checkpoint: PathCheckpoint | None = None,
+               truncate: Callable[[int], None] | None = None) -> PathRun:
     """Trace a pressure path to ``p_end`` (units of the problem) as ``settings.method`` says.
 
     ``"auto"``: pressure steps (Δp from p_end/20, down to p_end/400, up to p_end/8), handing
@@ -325,12 +373,27 @@ def trace_path(problem: PressureProblem, solver: LinearSolver, settings: FESetti
     secant predictor they would have had, or, once the path was on continuation, contique
     in the direction of the last step and with increments as large as its (contique's
     step-control history is not kept, so the points that follow may differ).
+
+    With ``truncate`` (the caller drops all but its first ``n`` recorded points), a
+    continuation that turns round and walks back down its own path (:func:`retraced`; it
+    can at a branch point, where contique's next step converges on the path behind) is
+    restarted from the turning point: the points that walked back are dropped, and
+    contique starts again there with the rising pressure in control (on
+    ``examples/fe_device.toml`` this finds the stable rising branch that meets the falling
+    one where contique turned); should that turn round too, from secant jumps ahead
+    (:data:`RETRACE_RESTARTS`). After as many restarts the path ends there as retraced.
     """
     s = settings
     x_start = problem.get_x()
     saved = checkpoint.load(problem.nfree) if checkpoint is not None else []
+    watch = _TurnWatch(x_start)
 
     def record(pt: PathPoint) -> bool:
+        if (truncate is not None and pt.method == "arc-length"
+                and watch.restarts < len(RETRACE_RESTARTS) and watch.turns(pt)):
+            watch.pending = pt  # not recorded: the continuation stops, and restarts
+            return True
+        watch.accept(pt)
         if checkpoint is not None:
             checkpoint.save(pt)
         return on_point(pt)
@@ -338,6 +401,7 @@ def trace_path(problem: PressureProblem, solver: LinearSolver, settings: FESetti
     run = PathRun()
     for pt in saved:
         run.points.append(pt)
+        watch.accept(pt)
         if on_point(pt):
             run.status = "stopped"
             return run
@@ -373,6 +437,30 @@ def trace_path(problem: PressureProblem, solver: LinearSolver, settings: FESetti
                             chord=s.chord, max_steps=max(s.max_steps - len(run.points), 1),
                             on_point=record, direction=direction)
         run = _merge(run, more)
+        while watch.pending is not None and truncate is not None:
+            keep = watch.apex()
+            del run.points[keep:]
+            watch.cut(keep)
+            if checkpoint is not None:
+                checkpoint.truncate(keep)
+            truncate(keep)
+            a = run.points[-1]
+            b_x, b_p = ((run.points[-2].x, run.points[-2].pressure) if len(run.points) > 1
+                        else (x_start, 0.0))
+            jump = RETRACE_RESTARTS[watch.restarts]
+            watch.restarts += 1
+            run.restarts += 1
+            if jump is None:   # from the turning point, rising pressure in control
+                problem.set_x(a.x)
+                p_from, direction = a.pressure, None
+            else:              # from a secant jump ahead, the same way on
+                problem.set_x(a.x + jump * (a.x - b_x))
+                p_from = a.pressure + jump * (a.pressure - b_p)
+                direction = np.append(a.x - b_x, a.pressure - b_p)
+            more = continuation(problem, p_from, solver, dx_max=s.dx_max, dp_max=s.dp_max,
+                                chord=s.chord, on_point=record, direction=direction,
+                                max_steps=max(s.max_steps - len(run.points), 1))
+            run = _merge(run, more)
     return run
 
 
@@ -435,7 +523,8 @@ def simulate_cell(geometry: CellGeometry, settings: FESettings | None = None, *,
     rec = _Recorder(mesh, problem, L, mu, p_max, s.max_volume_ratio, max_stretch, progress,
                     s.stop_after_limit)
     try:
-        run = trace_path(problem, solver, s, p_max / mu, rec.add, checkpoint=checkpoint)
+        run = trace_path(problem, solver, s, p_max / mu, rec.add, checkpoint=checkpoint,
+                         truncate=lambda n: drop_points(rec, n))
     finally:
         solver.release()
     if len(rec.rows) < 2:
@@ -451,6 +540,7 @@ def simulate_cell(geometry: CellGeometry, settings: FESettings | None = None, *,
         "solver": solver.name, "solve_time": solver.time, "solves": solver.calls,
         "analyses": solver.analyses, "factorisations": solver.factorisations,
         "tangents_reused": run.tangents_reused, "chord_steps": run.chord_steps,
+        "restarts": run.restarts,
         "assembly_time": problem.stats.time, "wall_time": time.perf_counter() - t0,
         "resumed_points": checkpoint.resumed if checkpoint is not None else 0,
         "settings": {k: (v if not isinstance(v, MeshDensity) else asdict(v))

@@ -98,10 +98,20 @@ class PathCheckpoint:
                  iterations=int(pt.iterations), stable=stable, method=str(pt.method))
         os.replace(tmp, name)
         self._count = i + 1
+        self._write_index()
+
+    def _write_index(self) -> None:
         meta = {"key": self.key, "nfree": self._nfree, "points": self._count}
         tmp_meta = self.folder / f".{_META}.tmp"
         tmp_meta.write_text(json.dumps(meta))
         os.replace(tmp_meta, self.folder / _META)
+
+    def truncate(self, n: int) -> None:
+        """Keep the first ``n`` saved points only (the later files are overwritten by the
+        next saves; the index says ``n`` at once)."""
+        self._count = min(int(n), self._count)
+        if self.folder.exists():
+            self._write_index()
 
     @property
     def saved(self) -> int:

@@ -33,7 +33,7 @@ import numpy as np
 
 from multimorph.device import Device
 from multimorph.errors import MultimorphError
-from multimorph.fe._cell import FESettings, path_end, trace_path
+from multimorph.fe._cell import FESettings, drop_points, path_end, trace_path
 from multimorph.fe._checkpoint import PathCheckpoint
 from multimorph.fe._deps import require
 from multimorph.fe._device_mesh import (
@@ -387,7 +387,8 @@ def simulate_device(device: Device, settings: FESettings | None = None,
     max_stretch = s.max_stretch if s.max_stretch is not None else min(breaks, default=None)
     rec = _DeviceRecorder(mesh, problem, L, mu, p_max, s, max_stretch, progress)
     try:
-        run = trace_path(problem, solver, s, p_max / mu, rec.add, checkpoint=checkpoint)
+        run = trace_path(problem, solver, s, p_max / mu, rec.add, checkpoint=checkpoint,
+                         truncate=lambda n: drop_points(rec, n))
     finally:
         solver.release()
     if len(rec.rows) < 2:
@@ -400,7 +401,8 @@ def simulate_device(device: Device, settings: FESettings | None = None,
         "message": run.message, "stop_reason": rec.stop_reason, "solver": solver.name,
         "solve_time": solver.time, "solves": solver.calls, "analyses": solver.analyses,
         "factorisations": solver.factorisations, "tangents_reused": run.tangents_reused,
-        "chord_steps": run.chord_steps, "assembly_time": problem.stats.time,
+        "chord_steps": run.chord_steps, "restarts": run.restarts,
+        "assembly_time": problem.stats.time,
         "wall_time": time.perf_counter() - t0,
         "resumed_points": checkpoint.resumed if checkpoint is not None else 0,
         "p_max": p_max, "length_unit_m": L, "stress_unit_pa": mu,

@@ -62,6 +62,8 @@ class PathRun:
     tangents_reused: int = 0
     #: continuation iterations that reused the previous iterate's tangent (chord steps)
     chord_steps: int = 0
+    #: continuations restarted past the point where they had turned round
+    restarts: int = 0
 
 
 def _inertia_stable(solver: LinearSolver) -> bool | None:

@@ -35,7 +35,7 @@ import numpy as np
 
 from multimorph.device import Module
 from multimorph.errors import MultimorphError
-from multimorph.fe._cell import FESettings, path_end, trace_path
+from multimorph.fe._cell import FESettings, drop_points, path_end, trace_path
 from multimorph.fe._checkpoint import PathCheckpoint
 from multimorph.fe._deps import require
 from multimorph.fe._linsolve import make_solver
@@ -278,7 +278,8 @@ def simulate_twisting_module(module: Module, settings: FESettings | None = None,
     beta = float(module.tilt if tilt is None else tilt)
     rec = _TwistRecorder(mesh, problem, L, mu, p_end, s, max_stretch, progress, beta)
     try:
-        run = trace_path(problem, solver, s, p_end / mu, rec.add, checkpoint=checkpoint)
+        run = trace_path(problem, solver, s, p_end / mu, rec.add, checkpoint=checkpoint,
+                         truncate=lambda n: drop_points(rec, n))
     finally:
         solver.release()
     if len(rec.rows) < 2:
@@ -291,6 +292,7 @@ def simulate_twisting_module(module: Module, settings: FESettings | None = None,
         "solver": solver.name, "solve_time": solver.time, "solves": solver.calls,
         "analyses": solver.analyses, "factorisations": solver.factorisations,
         "tangents_reused": run.tangents_reused, "chord_steps": run.chord_steps,
+        "restarts": run.restarts,
         "assembly_time": problem.stats.time, "mesh_time": t_mesh,
         "wall_time": time.perf_counter() - t0, "p_max": p_end, "length_unit_m": L,
         "stress_unit_pa": mu, "tilt": beta,
