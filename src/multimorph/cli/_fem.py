@@ -84,7 +84,7 @@ def _density(mesh: str, size: float | None, wall_elements: int | None) -> Any:
     return replace(dens, wall_elements=int(wall_elements))
 
 
-def _resumed_note(stats: dict[str, Any], ck: Any) -> str:
+def _run_note(stats: dict[str, Any], ck: Any) -> str:
     n = int(stats.get("resumed_points", 0))
     k = int(stats.get("restarts", 0))
     return ((f"; resumed from {n} saved points" if n else "")
@@ -258,7 +258,7 @@ def fem(
         console.print(f"[bold]{what}[/] {st['nfree']} DOF, {st['points']} points, "
                       f"{st['newton_iterations']} Newton iterations, {st['solver']}, "
                       f"{st['wall_time']:.1f} s ({st['stop_reason'] or st['status']})"
-                      f"{_resumed_note(st, ck)}")
+                      f"{_run_note(st, ck)}")
         console.print(f"Pc = {kpa(c.critical)} ({c.critical_kind}), Ph = {kpa(c.hardening)}, "
                       f"failure = {kpa(c.failure)}")
         fin = info["final"]
@@ -380,7 +380,7 @@ def _fem_device(spec: Path, table: dict[str, Any], *, mesh: str, element_size: s
     console.print(f"[bold]FE device[/] {device.name}: {len(result.responses)} modules, "
                   f"{st['nfree']} DOF, {st['points']} points, {st['newton_iterations']} Newton "
                   f"iterations, {st['solver']}, {st['wall_time']:.1f} s "
-                  f"({st['stop_reason'] or st['status']}){_resumed_note(st, ck)}",
+                  f"({st['stop_reason'] or st['status']}){_run_note(st, ck)}",
                   highlight=False)
     head = (f"  {'module':<10} {'kind':<10} {'Pc':>6} {'Ph':>6} {'at P':>6} {'bend°':>6} "
             f"{'twist°':>6} {'stretch':>7}")
@@ -502,7 +502,7 @@ def _fem_module(spec: Path, table: dict[str, Any], name: str, *, mesh: str,
                   f"{st['nfree']} DOF, "
                   f"{st['points']} points, {st['newton_iterations']} Newton iterations, "
                   f"{st['solver']}, {st['wall_time']:.1f} s "
-                  f"({st['stop_reason'] or st['status']}){_resumed_note(st, ck)}",
+                  f"({st['stop_reason'] or st['status']}){_run_note(st, ck)}",
                   highlight=False)
     fin = info["module"]["final"]
     console.print(f"Pc = {kpa(pc)}, Ph = {kpa(ph)} (on the twist rate); at "

@@ -322,6 +322,7 @@ class _TurnWatch:
         self.states = [np.asarray(x_start)]
         self.pending: PathPoint | None = None
         self.restarts = 0
+        self.floor = 1  # the last restart's point: a later turn never cuts behind it
 
     def accept(self, pt: PathPoint) -> None:
         self.pressures.append(pt.pressure)
@@ -334,15 +335,16 @@ class _TurnWatch:
         """How many recorded points to keep: up to the last one where the path's direction
         reversed (the turning point), before the points that walk back."""
         s = [*self.states, self.pending.x] if self.pending is not None else self.states
-        for m in range(len(s) - 2, 0, -1):
+        for m in range(len(s) - 2, self.floor - 1, -1):
             if float((s[m + 1] - s[m]) @ (s[m] - s[m - 1])) < 0.0:
                 return m
-        return max(len(self.states) - 3, 1)
+        return max(len(self.states) - 3, self.floor)
 
     def cut(self, n: int) -> None:
         del self.pressures[n + 1:]
         del self.states[n + 1:]
         self.pending = None
+        self.floor = n
 
 
 def drop_points(recorder: Any, n: int) -> None:
