@@ -13,7 +13,13 @@ Heavy dependencies are imported inside functions; a missing one raises
 :class:`MissingExtraError` naming ``multimorph[fe]``.
 """
 
-from multimorph.fe._cell import FEResult, FESettings, build_cell_problem, simulate_cell
+from multimorph.fe._cell import (
+    CELL_ENDS,
+    FEResult,
+    FESettings,
+    build_cell_problem,
+    simulate_cell,
+)
 from multimorph.fe._checkpoint import PathCheckpoint
 from multimorph.fe._compare import (
     Comparison,
@@ -50,6 +56,7 @@ from multimorph.fe._twist import FETwistResult, compare_twisting, simulate_twist
 from multimorph.fe._twist_mesh import TwistMesh, twisting_module_mesh
 
 __all__ = [
+    "CELL_ENDS",
     "FE_MODULE_KINDS",
     "MESH_PRESETS",
     "CellMesh",

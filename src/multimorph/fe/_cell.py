@@ -125,20 +125,56 @@ class FEResult:
     stats: dict[str, Any] = field(default_factory=dict)
 
 
-def build_cell_problem(mesh: CellMesh) -> tuple[PressureProblem, float, float]:
-    """The nondimensional FE problem of a meshed cell; returns (problem, L, μ)."""
+#: How the free end of a cell (or module) is held: ``"free"``, or ``"plate"`` — its end face
+#: tied to a rigid plate that may move and turn (a penalty multi-point constraint with a
+#: rotation point). A plate makes a lone cell behave as a cell inside a module: there the
+#: mid-plane of every partition stays a plane section (mirror symmetry of uniform bending),
+#: as the clamp holds the other end, and no lone end wall bulges under one-sided pressure.
+CELL_ENDS = ("free", "plate")
+
+
+def build_cell_problem(mesh: CellMesh, end: str = "free",
+                       ) -> tuple[PressureProblem, float, float]:
+    """The nondimensional FE problem of a meshed cell; returns (problem, L, μ).
+
+    With ``end="plate"`` the problem has two extra nodes after the mesh's (the plate's centre
+    at the end face's centroid and its rotation node); a half model turns its plate about
+    x only and keeps its centre on the mirror plane.
+    """
+    if end not in CELL_ENDS:
+        raise SpecError(f"end: expected one of {', '.join(CELL_ENDS)}, got {end!r}")
     fem = require("felupe")
     g = mesh.geometry
     L, mu = g.length, g.mu
-    fmesh = fem.Mesh(mesh.points / L, mesh.cells, "hexahedron")
-    fixed = np.zeros((len(mesh.points), 3), dtype=bool)
-    fixed[mesh.clamped] = True
-    fixed[mesh.mirror, 0] = True
+    points = mesh.points / L
+    n = len(points)
+    ties: list[tuple[np.ndarray, int, int]] = []
+    if end == "plate":
+        centre = points[mesh.end_face].mean(axis=0)
+        if mesh.half:
+            centre[0] = g.width / 2 / L
+        points = np.vstack([points, centre, centre])
+        ties = [(np.asarray(mesh.end_face), n, n + 1)]
+    fmesh = fem.Mesh(points, mesh.cells, "hexahedron")
+    fixed = np.zeros((len(points), 3), dtype=bool)
+    fixed[:n][mesh.clamped] = True
+    fixed[:n][mesh.mirror, 0] = True
+    if end == "plate" and mesh.half:
+        fixed[n, 0] = True          # the centre stays on the mirror plane
+        fixed[n + 1, 1:] = True     # the plate turns about x only
     assert g.bottom_material is not None
     bodies = [(np.flatnonzero(mesh.region == WALL), g.material.scaled(1.0 / mu)),
               (np.flatnonzero(mesh.region == BOTTOM), g.bottom_material.scaled(1.0 / mu))]
     bodies = [(c, m) for c, m in bodies if len(c)]
-    return PressureProblem(fmesh, bodies, mesh.chamber_points, fixed), L, mu
+    stiffness = 0.0
+    if ties:  # 10³ × the stiffest material's μ h over the smallest edge h (as device hubs)
+        e = points[mesh.cells]
+        h = min(float(np.linalg.norm(e[:, k] - e[:, 0], axis=1).min()) for k in (1, 3, 4))
+        stiffness = 1e3 * max(g.material.shear_modulus,
+                              g.bottom_material.shear_modulus) / mu * h
+    mask = np.concatenate([mesh.chamber_points, np.zeros(len(points) - n, dtype=bool)])
+    return PressureProblem(fmesh, bodies, mask, fixed, ties=ties,
+                           tie_stiffness=stiffness), L, mu
 
 
 _STRIP_KEYS = ("shear", "shear_slope", "strip_axial_strain", "strip_lateral_strain",
@@ -229,7 +265,7 @@ class _Recorder:
     def add(self, pt: PathPoint) -> bool:
         m, g = self.mesh, self.mesh.geometry
         self.problem.set_x(pt.x)
-        u = self.problem.values.copy() * self.L
+        u = self.problem.values[:len(m.points)].copy() * self.L
         x = m.points + u
         line = m.bend_line
         kappa = circle_fit_curvature(x[line, 1], x[line, 2])
@@ -469,7 +505,7 @@ def trace_path(problem: PressureProblem, solver: LinearSolver, settings: FESetti
 def simulate_cell(geometry: CellGeometry, settings: FESettings | None = None, *,
                   progress: Callable[[float, int], None] | None = None,
                   n_cells: int = 1, tilt: float = 0.0,
-                  checkpoint: PathCheckpoint | None = None) -> FEResult:
+                  checkpoint: PathCheckpoint | None = None, end: str = "free") -> FEResult:
     """Inflate a unit cell (or a module of cells in series) with FE and measure it like the
     reference paper.
 
@@ -490,6 +526,10 @@ def simulate_cell(geometry: CellGeometry, settings: FESettings | None = None, *,
     checkpoint : PathCheckpoint, optional
         Save every converged point there and resume from the points an interrupted run
         with the same key saved (:func:`trace_path`); ``stats["resumed_points"]``.
+    end : {"free", "plate"}
+        How the free end is held (:data:`CELL_ENDS`): free, or tied to a rigid plate that
+        moves and turns (a cell as inside a module: the FE reference data set of the
+        calibrated model uses it).
 
     Notes
     -----
@@ -518,7 +558,7 @@ def simulate_cell(geometry: CellGeometry, settings: FESettings | None = None, *,
     t0 = time.perf_counter()
     mesh = cell_mesh(geometry, s.mesh, element_size=s.element_size, half=s.half,
                      n_cells=n_cells, tilt=tilt)
-    problem, L, mu = build_cell_problem(mesh)
+    problem, L, mu = build_cell_problem(mesh, end)
     solver = make_solver(s.solver)
     p_max = s.p_max if s.p_max is not None else mu
     max_stretch = s.max_stretch if s.max_stretch is not None else geometry.material.break_stretch
@@ -533,7 +573,7 @@ def simulate_cell(geometry: CellGeometry, settings: FESettings | None = None, *,
         raise MultimorphError(f"FE analysis found no equilibrium beyond P = 0: {run.message}")
     path = rec.path()
     stats = {
-        "backend": "fe", "n_cells": int(mesh.n_cells), "tilt": float(mesh.tilt),
+        "backend": "fe", "n_cells": int(mesh.n_cells), "tilt": float(mesh.tilt), "end": end,
         "ndof": int(mesh.ndof),
         "nfree": int(problem.nfree),
         "ncells": int(mesh.ncells), "points": len(rec.rows) - 1, "attempts": run.attempts,

@@ -13,6 +13,7 @@ Examples
 
 from multimorph.sweep._backends import (
     CURVE_VARS,
+    EXTRA_CURVE_VARS,
     SCALAR_VARS,
     FeBackend,
     RomBackend,
@@ -25,6 +26,7 @@ from multimorph.sweep._backends import (
 from multimorph.sweep._params import RATIO_NAMES, Parameter
 from multimorph.sweep._run import SweepSummary, plan_batches, run_sweep
 from multimorph.sweep._spec import (
+    CELL_KINDS,
     OUTPUTS,
     DesignTable,
     InvalidPoint,
@@ -32,10 +34,19 @@ from multimorph.sweep._spec import (
     load_sweep_spec,
     parse_sweep_spec,
 )
-from multimorph.sweep._store import SweepStore, open_results, param_var, safe_name
+from multimorph.sweep._store import (
+    SweepStore,
+    collect_parts,
+    open_results,
+    param_var,
+    safe_name,
+    write_part_group,
+)
 
 __all__ = [
+    "CELL_KINDS",
     "CURVE_VARS",
+    "EXTRA_CURVE_VARS",
     "OUTPUTS",
     "RATIO_NAMES",
     "SCALAR_VARS",
@@ -48,6 +59,7 @@ __all__ = [
     "SweepSpec",
     "SweepStore",
     "SweepSummary",
+    "collect_parts",
     "evaluate_designs",
     "get_backend",
     "load_sweep_spec",
@@ -59,4 +71,5 @@ __all__ = [
     "register_backend",
     "run_sweep",
     "safe_name",
+    "write_part_group",
 ]

@@ -25,16 +25,21 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 
 from multimorph.errors import MultimorphError, SpecError
-from multimorph.geometry import CellGeometry
+from multimorph.geometry import CellGeometry, TiltedCell
 
-__all__ = ["CURVE_VARS", "SCALAR_VARS", "SweepBackend", "evaluate_designs", "get_backend",
-           "record_from_response", "register_backend"]
+__all__ = ["CURVE_VARS", "EXTRA_CURVE_VARS", "FE_EXTRA_OPTIONS", "SCALAR_VARS", "SweepBackend",
+           "evaluate_designs", "get_backend", "record_from_response", "register_backend",
+           "tilted_shear"]
 
 #: Per-design scalar outputs (Pa or 1/m; NaN when not reached) of ``"characteristic"``.
 SCALAR_VARS = ("critical_pressure", "hardening_pressure", "failure_pressure",
                "curvature_at_critical", "curvature_at_hardening", "curvature_at_failure")
 #: Per-point curve outputs of ``"curves"``: the whole equilibrium path.
 CURVE_VARS = ("pressure", "curvature", "peak_stretch", "stable")
+#: Further per-point curves stored when a backend gives them (NaN elsewhere): the bottom
+#: edge's axial stretch (-), the chamber volume (m³), the free end's bend angle (rad), the
+#: strip's in-plane shear in the sense of its tilt (tilted cells, -) and the twist rate (1/m).
+EXTRA_CURVE_VARS = ("axial_stretch", "volume", "bend_angle", "shear", "twist_rate")
 
 
 @runtime_checkable
@@ -95,7 +100,34 @@ def record_from_response(resp: Any, outputs: Sequence[str]) -> dict[str, Any]:
         rec.update(pressure=np.asarray(path.pressure, float),
                    curvature=np.asarray(path.curvature, float),
                    peak_stretch=np.asarray(path.peak_stretch, float),
-                   stable=np.asarray(path.stable, bool))
+                   stable=np.asarray(path.stable, bool),
+                   axial_stretch=np.asarray(path.axial_stretch, float),
+                   volume=np.asarray(path.volume, float))
+        extra = path.extra or {}
+        if "bend_angle" in extra:
+            rec["bend_angle"] = np.asarray(extra["bend_angle"], float)
+        if resp.backend == "fe":
+            rec["twist_rate"] = np.asarray(path.twist_rate, float)
+    return rec
+
+
+def _tilted_record(resp: Any, shear: np.ndarray, outputs: Sequence[str],
+                   meta: Mapping[str, Any]) -> dict[str, Any]:
+    """The record of a tilted cell: the straight response's curves plus the strip's shear
+    (in the sense of its tilt), with Pc, Ph and failure read on the shear."""
+    from dataclasses import replace
+
+    from multimorph.response import build_response
+
+    path = replace(resp.path, twist_rate=np.asarray(shear, float))
+    tilted = build_response(path, length=resp.length, shear_modulus=resp.shear_modulus,
+                            backend=resp.backend, break_stretch=resp.break_stretch,
+                            signal="twist_rate", meta=dict(resp.meta))
+    rec = record_from_response(tilted, outputs)
+    if "curves" in outputs:
+        rec["shear"] = np.asarray(shear, float)
+        rec["twist_rate"] = np.full(len(shear), np.nan)
+    rec["meta"] = dict(meta)
     return rec
 
 
@@ -109,6 +141,16 @@ def _normalise(item: Any, outputs: Sequence[str]) -> dict[str, Any]:
     rec.setdefault("status", "ok")
     rec.setdefault("error", "")
     return rec
+
+
+def tilted_shear(resp: Any, cell: CellGeometry, tilt: float) -> np.ndarray:
+    """The reduced model's strip shear of a tilted cell, in the sense of its tilt:
+    γ = ε sin 2|β| with ε = λ_mid − 1 the straight cell's mid-height natural strain (the
+    twisting module's kinematics, :mod:`multimorph.device`)."""
+    path = resp.path
+    lam = np.asarray(path.axial_stretch) * (1.0 + np.asarray(path.curvature) * 0.5
+                                            * cell.height)
+    return (lam - 1.0) * math.sin(2.0 * abs(tilt))
 
 
 def evaluate_designs(backend: SweepBackend, designs: Sequence[CellGeometry], pmax: float,
@@ -197,55 +239,156 @@ class RomBackend:
         """Check that the model is there (before any task runs)."""
         self._api()
 
-    def evaluate_batch(self, designs: Sequence[CellGeometry], pmax: float,
+    def evaluate_batch(self, designs: Sequence[CellGeometry | TiltedCell], pmax: float,
                        outputs: Sequence[str], options: Mapping[str, Any]) -> list[Any]:
         fn, batched = self._api()
+        cells = [d.cell if isinstance(d, TiltedCell) else d for d in designs]
         if batched:
-            return list(fn(list(designs), pmax, **dict(options)))
-        out: list[Any] = []
-        for d in designs:
-            try:
-                out.append(fn(d, pmax, **dict(options)))
-            except Exception as exc:
-                out.append(exc)
+            out = list(fn(cells, pmax, **dict(options)))
+        else:
+            out = []
+            for c in cells:
+                try:
+                    out.append(fn(c, pmax, **dict(options)))
+                except Exception as exc:
+                    out.append(exc)
+        for i, d in enumerate(designs):  # a tilted cell: the straight one's shear rule
+            if isinstance(d, TiltedCell) and not isinstance(out[i], BaseException):
+                out[i] = _tilted_record(out[i], tilted_shear(out[i], d.cell, d.tilt),
+                                        outputs, {"model": "ritz"})
         return out
+
+
+#: ``[sweep.options]`` of the FE backend that are not :class:`multimorph.fe.FESettings`
+#: fields: cells in series (a module of ``n_cells``), the mesh density as elements through
+#: every wall and in-plane edge length / d, and how far each path is traced.
+FE_EXTRA_OPTIONS = ("n_cells", "end", "wall_elements", "length_fraction", "pmax_rule",
+                    "pmax_factor")
 
 
 class FeBackend:
     """The finite-element model (:func:`multimorph.fe.simulate_cell`), one design per task.
 
-    ``options`` are :class:`multimorph.fe.FESettings` fields (``mesh``, ``method``, ``tol`` …);
-    ``p_max`` is the sweep's ``pmax``.
+    ``options`` are :class:`multimorph.fe.FESettings` fields (``mesh``, ``method``, ``tol`` …)
+    and :data:`FE_EXTRA_OPTIONS`:
+
+    * ``n_cells`` (default 1): the design is run as a module of that many cells in series;
+    * ``end`` (``"free"``, default, or ``"plate"``): how the free end is held
+      (:data:`multimorph.fe.CELL_ENDS`; a plate makes a lone cell a cell inside a module);
+    * ``wall_elements``, ``length_fraction``: a :class:`multimorph.fe.MeshDensity` in place
+      of the ``mesh`` preset;
+    * ``pmax_rule = "rom"`` with ``pmax_factor`` f (default 1): each design is traced to
+      f × its reduced-model Pc (the reduced model is about twice as stiff as FE, so this
+      reaches about twice the FE Pc), never beyond the sweep's ``pmax``; ``"fixed"``
+      (default): to the sweep's ``pmax``.
+
+    ``p_max`` is the sweep's ``pmax``. Tilted cells (a twisting sweep,
+    :class:`~multimorph.geometry.TiltedCell`) run as the full (not half) model of the
+    sheared strip; their record adds the strip's shear in the sense of the tilt, and Pc/Ph
+    are read on it. Every record carries ``meta``: DOF, points, Newton iterations, time,
+    why the path ended, the mesh and solver settings, the traced pressure range and the
+    code version.
     """
 
     name = "fe"
     batch_size = 1
 
     @staticmethod
-    def _api() -> tuple[Any, Any]:
+    def _api() -> Any:
         fe = _import_model("multimorph.fe", "the finite-element model of issue 5")
-        fn, settings = getattr(fe, "simulate_cell", None), getattr(fe, "FESettings", None)
-        if fn is None or settings is None:
-            raise MultimorphError("multimorph.fe does not export simulate_cell and FESettings "
-                                  "(the finite-element model of issue 5 is not finished)")
-        return fn, settings
+        for n in ("simulate_cell", "FESettings", "MeshDensity"):
+            if getattr(fe, n, None) is None:
+                raise MultimorphError(f"multimorph.fe does not export {n}")
+        return fe
+
+    def _settings(self, fe: Any, pmax: float, options: Mapping[str, Any],
+                  tilted: bool = False) -> tuple[Any, dict[str, Any]]:
+        opts = dict(options)
+        extra = {k: opts.pop(k) for k in FE_EXTRA_OPTIONS if k in opts}
+        end = extra.get("end", "free")
+        if end not in ("free", "plate"):
+            raise SpecError(f"sweep.options.end: expected \"free\" or \"plate\", got {end!r}")
+        n_cells = extra.get("n_cells", 1)
+        if isinstance(n_cells, bool) or not isinstance(n_cells, int) or n_cells < 1:
+            raise SpecError(f"sweep.options.n_cells: expected a positive integer, got "
+                            f"{n_cells!r}")
+        if "wall_elements" in extra or "length_fraction" in extra:
+            we = extra.get("wall_elements", 2)
+            lf = extra.get("length_fraction", 0.1)
+            if isinstance(we, bool) or not isinstance(we, int) or we < 1:
+                raise SpecError(f"sweep.options.wall_elements: expected a positive integer, "
+                                f"got {we!r}")
+            if isinstance(lf, bool) or not isinstance(lf, int | float) or not 0 < lf <= 1:
+                raise SpecError(f"sweep.options.length_fraction: expected a fraction of the "
+                                f"cell length in (0, 1], got {lf!r}")
+            opts["mesh"] = fe.MeshDensity(wall_elements=we, length_fraction=float(lf))
+        rule = extra.get("pmax_rule", "fixed")
+        if rule not in ("fixed", "rom"):
+            raise SpecError(f"sweep.options.pmax_rule: expected \"fixed\" or \"rom\", got "
+                            f"{rule!r}")
+        factor = extra.get("pmax_factor", 1.0)
+        if isinstance(factor, bool) or not isinstance(factor, int | float) or not (
+                math.isfinite(factor) and factor > 0):
+            raise SpecError(f"sweep.options.pmax_factor: expected a positive number, got "
+                            f"{factor!r}")
+        if tilted:
+            opts["half"] = False
+        try:
+            settings = fe.FESettings(**{**opts, "p_max": pmax})
+        except TypeError as exc:
+            raise SpecError(f"sweep.options: not an FE setting ({exc})") from None
+        return settings, {"n_cells": n_cells, "end": end, "pmax_rule": rule,
+                          "pmax_factor": float(factor)}
 
     def validate(self, pmax: float, options: Mapping[str, Any]) -> None:
         """Check ``options`` once, before any task runs (SpecError naming the bad key)."""
-        _, settings = self._api()
-        try:
-            settings(**{**dict(options), "p_max": pmax})
-        except TypeError as exc:
-            raise SpecError(f"sweep.options: not an FE setting ({exc})") from None
+        self._settings(self._api(), pmax, options)
 
-    def evaluate_batch(self, designs: Sequence[CellGeometry], pmax: float,
+    def _p_max(self, cell: CellGeometry, pmax: float, how: Mapping[str, Any]) -> float:
+        if how["pmax_rule"] != "rom":
+            return pmax
+        from multimorph.rom import solve_cell
+
+        pc = solve_cell(cell, pmax).characteristic.critical
+        return pmax if pc is None else min(pmax, how["pmax_factor"] * pc)
+
+    def evaluate_batch(self, designs: Sequence[CellGeometry | TiltedCell], pmax: float,
                        outputs: Sequence[str], options: Mapping[str, Any]) -> list[Any]:
-        fn, settings = self._api()
-        s = settings(**{**dict(options), "p_max": pmax})
+        from dataclasses import asdict, replace
+
+        from multimorph._provenance import code_version
+
+        fe = self._api()
         out: list[Any] = []
         for d in designs:
             try:
-                out.append(fn(d, s).response)
+                tilted = isinstance(d, TiltedCell)
+                cell = d.cell if isinstance(d, TiltedCell) else d
+                settings, how = self._settings(fe, pmax, options, tilted)
+                p_end = self._p_max(cell, pmax, how)
+                settings = replace(settings, p_max=p_end)
+                res = fe.simulate_cell(cell, settings, n_cells=how["n_cells"], end=how["end"],
+                                       tilt=d.tilt if isinstance(d, TiltedCell) else 0.0)
+                st = res.stats
+                mesh = settings.mesh
+                meta = {"model": "fe", "code_version": code_version(),
+                        "nfree": st["nfree"], "points": st["points"],
+                        "newton_iterations": st["newton_iterations"],
+                        "wall_time": round(float(st["wall_time"]), 3),
+                        "status": st["status"], "stop_reason": st["stop_reason"],
+                        "p_max": p_end, "n_cells": how["n_cells"], "end": how["end"],
+                        "half": settings.half,
+                        "mesh": mesh if isinstance(mesh, str) else asdict(mesh),
+                        "solver": st["solver"], "tol": settings.tol,
+                        "max_volume_ratio": settings.max_volume_ratio}
+                if isinstance(d, TiltedCell):
+                    gamma = np.asarray(res.response.path.extra["shear"], float)
+                    out.append(_tilted_record(res.response, -math.copysign(1.0, d.tilt) * gamma,
+                                              outputs, meta))
+                else:
+                    rec = record_from_response(res.response, outputs)
+                    rec["meta"] = meta
+                    out.append(rec)
             except Exception as exc:
                 out.append(exc)
         return out

@@ -26,13 +26,15 @@ from multimorph.geometry import CELL_KEYS
 from multimorph.materials import Material
 from multimorph.units import to_si
 
-__all__ = ["RATIO_NAMES", "Parameter", "parse_parameter"]
+__all__ = ["RATIO_NAMES", "TILT_NAME", "Parameter", "parse_parameter"]
 
 #: Dimensionless length ratios: name -> the cell field set to ratio × d.
 RATIO_NAMES = {"ht/d": "top_wall", "ws/d": "side_wall", "df/d": "end_wall",
                "hb/d": "bottom_wall", "w/d": "width", "h/d": "height"}
 #: Modulus parameters that scale a material (not paths into its parameters).
 MODULUS_NAMES = ("mu", "mu_b/mu")
+#: The chamber tilt β of a twisting sweep's tilted cells (angle; bare numbers are rad).
+TILT_NAME = "tilt"
 _ENTRY_KEYS = {"name", "path", "values", "start", "stop", "num", "scale", "label"}
 
 
@@ -44,9 +46,9 @@ class Parameter:
     ----------
     name : str
         As written in the spec (``"cell.top_wall"``, ``"ht/d"``, ``"mu"`` …).
-    kind : {"length", "material", "ratio", "modulus"}
-        What it sets: a cell length, a material parameter, a length ratio × d, or a modulus
-        scaling.
+    kind : {"length", "material", "ratio", "modulus", "tilt"}
+        What it sets: a cell length, a material parameter, a length ratio × d, a modulus
+        scaling, or the chamber tilt of a twisting sweep's cells.
     target : str
         The cell field (``"top_wall"``), or ``"material.jm"``, ``"bottom_material.mu"``,
         ``"mu"``, ``"mu_b/mu"``.
@@ -77,6 +79,18 @@ class Parameter:
             return np.exp(rng.uniform(math.log(self.low), math.log(self.high), size=n))
         return rng.uniform(self.low, self.high, size=n)
 
+    def from_unit(self, u: np.ndarray) -> np.ndarray:
+        """Values at points ``u`` of the unit interval (space-filling designs): linear or
+        logarithmic between the range's ends, or the list entry of that quantile."""
+        u = np.clip(np.asarray(u, float), 0.0, 1.0)
+        if self.scale == "list":
+            vals = np.asarray(self.values, float)
+            return vals[np.minimum((u * len(vals)).astype(int), len(vals) - 1)]
+        assert self.low is not None and self.high is not None
+        if self.scale == "log":
+            return np.exp(math.log(self.low) + u * (math.log(self.high) - math.log(self.low)))
+        return self.low + u * (self.high - self.low)
+
     def to_dict(self) -> dict[str, Any]:
         return {"name": self.name, "kind": self.kind, "target": self.target, "unit": self.unit,
                 "scale": self.scale, "values": list(self.values), "low": self.low,
@@ -92,6 +106,8 @@ def _resolve(name: str, cell_table: Mapping[str, Any], base_material: Material,
         return "modulus", "mu", "Pa"
     if name == "mu_b/mu":
         return "modulus", "mu_b/mu", "dimensionless"
+    if name == TILT_NAME:
+        return "tilt", "tilt", "rad"
     parts = name.split(".")
     if len(parts) == 2 and parts[0] == "cell" and parts[1] in CELL_KEYS:
         return "length", parts[1], "m"
@@ -107,7 +123,7 @@ def _resolve(name: str, cell_table: Mapping[str, Any], base_material: Material,
     known = ([f"cell.{k}" for k in CELL_KEYS]
              + [f"cell.material.{p}" for p in base_material.law.param_names]
              + [f"cell.bottom_material.{p}" for p in base_bottom.law.param_names]
-             + list(RATIO_NAMES) + list(MODULUS_NAMES))
+             + list(RATIO_NAMES) + list(MODULUS_NAMES) + [TILT_NAME])
     raise SpecError(f"{field}: unknown parameter path {name!r}; known: {', '.join(known)}")
 
 

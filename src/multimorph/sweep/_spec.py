@@ -14,7 +14,11 @@ Example::
     backend = "rom"             # or "fe"
     outputs = ["characteristic", "curves"]
     pmax = "60 kPa"
-    combine = "grid"            # "grid" (product), "zip", or "random" (with samples, seed)
+    combine = "grid"            # "grid" (product), "zip", "random", or the space-filling
+                                # "sobol" (scrambled Sobol) and "lhs" (Latin hypercube),
+                                # each with samples and seed
+    kind = "bending"            # or "stretching" (mirror-symmetric cells) or "twisting"
+                                # (tilted cells: a "tilt" parameter or tilt = "30 deg")
 
     [[sweep.parameter]]
     name = "ht/d"
@@ -48,22 +52,24 @@ from typing import Any
 import numpy as np
 
 from multimorph.errors import SpecError
-from multimorph.geometry import CELL_KEYS, CellGeometry
+from multimorph.geometry import CELL_KEYS, CellGeometry, TiltedCell
 from multimorph.io import load_toml
 from multimorph.sweep._params import Parameter, parse_parameter
 from multimorph.units import to_si
 
-__all__ = ["OUTPUTS", "DesignTable", "InvalidPoint", "SweepSpec", "load_sweep_spec",
+__all__ = ["CELL_KINDS", "OUTPUTS", "DesignTable", "InvalidPoint", "SweepSpec", "load_sweep_spec",
            "parse_sweep_spec"]
 
 #: What a sweep can store per design.
 OUTPUTS = ("characteristic", "curves")
 BACKENDS = ("rom", "fe")
-COMBINE = ("grid", "zip", "random")
+COMBINE = ("grid", "zip", "random", "sobol", "lhs")
+#: Cell kinds a sweep can evaluate: the three kinds of cell the modules use.
+CELL_KINDS = ("bending", "stretching", "twisting")
 _SWEEP_KEYS = {"backend", "outputs", "pmax", "combine", "samples", "seed", "parameter",
-               "parameters", "options", "name"}
+               "parameters", "options", "name", "kind", "tilt", "min_chamber"}
 # order in which parameter kinds are applied (ratios need the final d; mu_b/mu the final mu)
-_KIND_ORDER = {"length": 0, "material": 1, "ratio": 2, "modulus": 3}
+_KIND_ORDER = {"length": 0, "material": 1, "ratio": 2, "modulus": 3, "tilt": 4}
 
 
 @dataclass(frozen=True)
@@ -90,15 +96,15 @@ class DesignTable:
         SI unit of each column.
     values : ndarray (n, p)
         Parameter values (SI) per design.
-    cells : list of CellGeometry or None
-        The built design, ``None`` where invalid.
+    cells : list of CellGeometry, TiltedCell or None
+        The built design (tilted cells in a twisting sweep), ``None`` where invalid.
     invalid : list of InvalidPoint
     """
 
     names: tuple[str, ...]
     units: tuple[str, ...]
     values: np.ndarray
-    cells: list[CellGeometry | None]
+    cells: list[CellGeometry | TiltedCell | None]
     invalid: list[InvalidPoint]
 
     def __len__(self) -> int:
@@ -138,6 +144,15 @@ class SweepSpec:
         Backend options (``[sweep.options]``), passed through to the backend.
     raw : dict
         The whole spec as parsed from TOML (stored with the results).
+    kind : {"bending", "stretching", "twisting"}
+        The kind of cell every design is: as built (bending), mirror-symmetric (stretching:
+        bottom wall and material set to the top's, :meth:`CellGeometry.mirrored`), or tilted
+        (twisting: a :class:`~multimorph.geometry.TiltedCell` with the design's tilt).
+    tilt : float or None
+        Fixed chamber tilt (rad) of a twisting sweep that does not sweep ``tilt``.
+    min_chamber : float
+        Least chamber size in every direction as a fraction of the cell length d: smaller
+        chambers make a design invalid (kept, with the reason). 0 accepts any chamber.
     """
 
     base: CellGeometry
@@ -150,6 +165,9 @@ class SweepSpec:
     pmax: float
     options: dict[str, Any] = field(default_factory=dict)
     raw: dict[str, Any] = field(default_factory=dict)
+    kind: str = "bending"
+    tilt: float | None = None
+    min_chamber: float = 0.0
 
     @property
     def spec_hash(self) -> str:
@@ -159,7 +177,7 @@ class SweepSpec:
 
     @property
     def n_designs(self) -> int:
-        if self.combine == "random":
+        if self.combine in ("random", "sobol", "lhs"):
             assert self.samples is not None
             return self.samples
         if self.combine == "zip":
@@ -173,22 +191,34 @@ class SweepSpec:
             rng = np.random.default_rng(self.seed)
             assert self.samples is not None
             return np.column_stack([q.sample(rng, self.samples) for q in p])
+        if self.combine in ("sobol", "lhs"):
+            from scipy.stats import qmc
+
+            assert self.samples is not None
+            engine = (qmc.Sobol(len(p), scramble=True, seed=self.seed)
+                      if self.combine == "sobol" else qmc.LatinHypercube(len(p), seed=self.seed))
+            u = engine.random(self.samples)
+            return np.column_stack([q.from_unit(u[:, j]) for j, q in enumerate(p)])
         if self.combine == "zip":
             return np.array([list(v) for v in zip(*(q.values for q in p), strict=True)], float)
         return np.array(list(itertools.product(*(q.values for q in p))), float).reshape(-1, len(p))
 
-    def build(self, values: Mapping[str, float]) -> CellGeometry:
+    def build(self, values: Mapping[str, float]) -> CellGeometry | TiltedCell:
         """The design at one point: the base cell with ``values`` applied (SpecError if invalid).
 
         Lengths and material parameters are applied first, then ratios (× the final d), then
-        ``mu`` (wall material scaled to that shear modulus), then ``mu_b/mu``.
+        ``mu`` (wall material scaled to that shear modulus), then ``mu_b/mu``. A stretching
+        sweep's cell is then made mirror-symmetric, a twisting sweep's is tilted.
         """
         lengths = {k: getattr(self.base, k) for k in CELL_KEYS}
         mats = {"material": self.base.material, "bottom_material": self.base.bottom_material}
+        tilt = self.tilt
         for q in sorted(self.parameters,
                         key=lambda q: (_KIND_ORDER[q.kind], q.target == "mu_b/mu")):
             v = float(values[q.name])
-            if q.kind == "length":
+            if q.kind == "tilt":
+                tilt = v
+            elif q.kind == "length":
                 lengths[q.target] = v
             elif q.kind == "material":
                 which, key = q.target.split(".")
@@ -207,14 +237,29 @@ class SweepSpec:
                 b = mats["bottom_material"]
                 mats["bottom_material"] = b.scaled(
                     v * mats["material"].shear_modulus / b.shear_modulus)
-        return CellGeometry(**lengths, material=mats["material"],
-                            bottom_material=mats["bottom_material"])
+        if self.kind == "stretching":
+            lengths["bottom_wall"] = lengths["top_wall"]
+            mats["bottom_material"] = mats["material"]
+        cell = CellGeometry(**lengths, material=mats["material"],
+                            bottom_material=mats["bottom_material"],
+                            symmetric=self.kind == "stretching")
+        if self.min_chamber > 0:
+            d = cell.length
+            for name, size in (("width", cell.wc), ("height", cell.hc), ("length", cell.dc)):
+                if size < self.min_chamber * d:
+                    raise SpecError(f"chamber {name} {size * 1e3:.4g} mm is below min_chamber "
+                                    f"= {self.min_chamber:g} d ({self.min_chamber * d * 1e3:.4g}"
+                                    " mm)")
+        if self.kind == "twisting":
+            assert tilt is not None
+            return TiltedCell(cell, tilt)
+        return cell
 
     def design_table(self) -> DesignTable:
         """Every design point, valid or not (invalid ones carry the reason)."""
         vals = self.point_values()
         names = tuple(q.name for q in self.parameters)
-        cells: list[CellGeometry | None] = []
+        cells: list[CellGeometry | TiltedCell | None] = []
         invalid: list[InvalidPoint] = []
         for i, row in enumerate(vals):
             point = {n: float(v) for n, v in zip(names, row, strict=True)}
@@ -312,20 +357,27 @@ def parse_sweep_spec(raw: Mapping[str, Any]) -> SweepSpec:
                             f"{q.target}; keep one")
         seen[q.target] = q.name
 
+    kind, tilt, min_chamber = _cell_kind(sweep, base, params)
     samples: int | None = None
     seed = sweep.get("seed", 0)
     if isinstance(seed, bool) or not isinstance(seed, int):
         raise SpecError(f"sweep.seed: expected an integer, got {seed!r}")
-    if combine == "random":
+    if combine in ("random", "sobol", "lhs"):
         samples = sweep.get("samples")
         if isinstance(samples, bool) or not isinstance(samples, int):
-            raise SpecError("sweep.samples: combine = \"random\" needs an integer number of "
-                            f"samples, got {samples!r}")
+            raise SpecError(f"sweep.samples: combine = \"{combine}\" needs an integer number "
+                            f"of samples, got {samples!r}")
         if samples < 1:
             raise SpecError(f"sweep.samples: empty sample (samples = {samples}); need >= 1")
+        if combine != "random":
+            lists = [q.name for q in params if q.scale == "list"]
+            if lists:
+                raise SpecError(f"sweep.combine = \"{combine}\": parameters need ranges "
+                                f"(start, stop), not lists: {', '.join(lists)}")
     else:
         if "samples" in sweep:
-            raise SpecError("sweep.samples: applies to combine = \"random\" only")
+            raise SpecError("sweep.samples: applies to combine = \"random\", \"sobol\" or "
+                            "\"lhs\" only")
         for q in params:
             if not q.values:
                 raise SpecError(f"sweep parameter {q.name!r}: a range needs 'num' unless "
@@ -337,8 +389,40 @@ def parse_sweep_spec(raw: Mapping[str, Any]) -> SweepSpec:
                                 f"of values, got {lens}")
     return SweepSpec(base=base, parameters=tuple(params), combine=combine, samples=samples,
                      seed=seed, backend=backend, outputs=tuple(dict.fromkeys(outputs)),
-                     pmax=pmax, options=dict(options), raw=json.loads(json.dumps(raw,
-                                                                                  default=str)))
+                     pmax=pmax, options=dict(options),
+                     raw=json.loads(json.dumps(raw, default=str)), kind=kind, tilt=tilt,
+                     min_chamber=min_chamber)
+
+
+def _cell_kind(sweep: Mapping[str, Any], base: CellGeometry, params: list[Parameter],
+               ) -> tuple[str, float | None, float]:
+    """``kind``, fixed ``tilt`` and ``min_chamber`` of a ``[sweep]`` table (checked)."""
+    kind = sweep.get("kind", "stretching" if base.symmetric else "bending")
+    if kind not in CELL_KINDS:
+        raise SpecError(f"sweep.kind: expected one of {', '.join(CELL_KINDS)}, got {kind!r}")
+    swept = {q.target for q in params}
+    if kind == "stretching" and swept & {"bottom_wall", "bottom_material.mu",
+                                         "bottom_material.jm", "mu_b/mu"}:
+        raise SpecError("sweep.kind = \"stretching\": the bottom wall and material are the top "
+                        "wall's; do not sweep hb/d, mu_b/mu or the bottom material")
+    tilt: float | None = None
+    if "tilt" in sweep:
+        if kind != "twisting":
+            raise SpecError("sweep.tilt: applies to kind = \"twisting\" only")
+        if "tilt" in swept:
+            raise SpecError("sweep.tilt: the tilt is also a swept parameter; keep one")
+        tilt = to_si(sweep["tilt"], "rad", field="sweep.tilt")
+    if kind == "twisting" and tilt is None and "tilt" not in swept:
+        raise SpecError("sweep.kind = \"twisting\" needs a chamber tilt: tilt = \"30 deg\" "
+                        "in [sweep], or a \"tilt\" parameter")
+    if kind != "twisting" and "tilt" in swept:
+        raise SpecError("sweep parameter 'tilt': applies to kind = \"twisting\" only")
+    min_chamber = sweep.get("min_chamber", 0.0)
+    if isinstance(min_chamber, bool) or not isinstance(min_chamber, int | float) or not (
+            math.isfinite(min_chamber) and 0 <= min_chamber < 1):
+        raise SpecError(f"sweep.min_chamber: expected a fraction of the cell length in [0, 1),"
+                        f" got {min_chamber!r}")
+    return kind, tilt, float(min_chamber)
 
 
 def load_sweep_spec(path: str | os.PathLike[str]) -> SweepSpec:

@@ -33,12 +33,13 @@ from typing import Any
 import numpy as np
 
 from multimorph.errors import MultimorphError, SpecError
-from multimorph.geometry import CELL_KEYS
+from multimorph.geometry import CELL_KEYS, TiltedCell
 from multimorph.io import write_json
-from multimorph.sweep._backends import CURVE_VARS, SCALAR_VARS
+from multimorph.sweep._backends import CURVE_VARS, EXTRA_CURVE_VARS, SCALAR_VARS
 from multimorph.sweep._spec import DesignTable, SweepSpec
 
-__all__ = ["SweepStore", "open_results", "param_var", "safe_name"]
+__all__ = ["SweepStore", "collect_parts", "open_results", "param_var", "safe_name",
+           "write_part_group"]
 
 FORMAT = "multimorph-sweep/1"
 
@@ -81,8 +82,10 @@ def write_part_group(path: Path, indices: Sequence[int], records: Sequence[Mappi
     """Write one batch of records as a compact Zarr group (few arrays: fast to write).
 
     Arrays: ``design`` (n,), ``scalars`` (n, 6) of :data:`SCALAR_VARS`, ``curves``
-    (n, m, 3) of pressure, curvature, peak stretch padded with NaN, ``curve_stable`` (n, m),
-    ``n_points`` (n,); strings (status, error, critical kind) in the group attributes.
+    (n, m, k) of pressure, curvature, peak stretch and, where a record has them, the
+    :data:`EXTRA_CURVE_VARS` (their names in the attribute ``curve_vars``), padded with
+    NaN, ``curve_stable`` (n, m), ``n_points`` (n,); strings (status, error, critical kind,
+    and each record's ``meta`` as JSON) in the group attributes.
     """
     import zarr
 
@@ -93,6 +96,9 @@ def write_part_group(path: Path, indices: Sequence[int], records: Sequence[Mappi
         "status": [str(r.get("status", "ok")) for r in records],
         "error": [str(r.get("error", "")) for r in records],
     }
+    if any("meta" in r for r in records):
+        attrs["meta"] = [json.dumps(r.get("meta", {}), sort_keys=True, default=str)
+                         for r in records]
     g.create_array("design", data=np.asarray(indices, dtype=np.int64))
     if "characteristic" in outputs:
         sc = np.array([[float(r.get(v, np.nan)) for v in SCALAR_VARS] for r in records],
@@ -102,16 +108,19 @@ def write_part_group(path: Path, indices: Sequence[int], records: Sequence[Mappi
     if "curves" in outputs:
         lens = [len(r["pressure"]) if "pressure" in r else 0 for r in records]
         m = max([*lens, 1])
-        cur = np.full((n, m, len(_CURVE_FLOATS)), np.nan)
+        names = [*_CURVE_FLOATS, *(v for v in EXTRA_CURVE_VARS if any(v in r for r in records))]
+        cur = np.full((n, m, len(names)), np.nan)
         stable = np.zeros((n, m), bool)
         for i, r in enumerate(records):
             if lens[i]:
-                for j, v in enumerate(_CURVE_FLOATS):
-                    cur[i, :lens[i], j] = np.asarray(r[v], float)
+                for j, v in enumerate(names):
+                    if v in r:
+                        cur[i, :lens[i], j] = np.asarray(r[v], float)
                 stable[i, :lens[i]] = np.asarray(r["stable"], bool)
         g.create_array("curves", data=cur)
         g.create_array("curve_stable", data=stable)
         g.create_array("n_points", data=np.asarray(lens, dtype=np.int64))
+        attrs["curve_vars"] = names
     g.attrs.update(attrs)
 
 
@@ -122,7 +131,7 @@ def read_part_group(path: Path) -> dict[str, np.ndarray]:
     g = zarr.open_group(str(path), mode="r")
     attrs = dict(g.attrs)
     out: dict[str, np.ndarray] = {"design": np.asarray(g["design"][:], dtype=np.int64)}
-    for key in ("status", "error", "critical_kind"):
+    for key in ("status", "error", "critical_kind", "meta"):
         if key in attrs:
             out[key] = _strings(attrs[key])
     names = set(g.array_keys())
@@ -132,7 +141,7 @@ def read_part_group(path: Path) -> dict[str, np.ndarray]:
             out[v] = sc[:, j]
     if "curves" in names:
         cur = np.asarray(g["curves"][:])
-        for j, v in enumerate(_CURVE_FLOATS):
+        for j, v in enumerate(attrs.get("curve_vars", _CURVE_FLOATS)):
             out[f"curve_{v}"] = cur[:, :, j]
         out["curve_stable"] = np.asarray(g["curve_stable"][:], dtype=bool)
         out["n_points"] = np.asarray(g["n_points"][:], dtype=np.int64)
@@ -140,32 +149,41 @@ def read_part_group(path: Path) -> dict[str, np.ndarray]:
 
 
 def design_dataset(spec: SweepSpec, table: DesignTable) -> Any:
-    """The design table as an xarray Dataset: parameters, lengths (m), ratios, moduli (Pa)."""
+    """The design table as an xarray Dataset: parameters, lengths (m), ratios, moduli (Pa),
+    the wall's Gent Jm where it has one, and the chamber tilt (rad) of tilted cells."""
     import xarray as xr
 
     n = len(table)
     reasons = {p.index: p.reason for p in table.invalid}
+    cells = [c.cell if isinstance(c, TiltedCell) else c for c in table.cells]
     data: dict[str, Any] = {}
     for j, name in enumerate(table.names):
         data[param_var(name)] = ("design", table.values[:, j].astype(float),
                                  {"unit": table.units[j], "parameter": name})
     for key in CELL_KEYS:
         data[key] = ("design", np.array([getattr(c, key) if c else np.nan
-                                         for c in table.cells]), {"unit": "m"})
-    ratios = [c.ratios() if c else {} for c in table.cells]
+                                         for c in cells]), {"unit": "m"})
+    ratios = [c.ratios() if c else {} for c in cells]
     for r in ("ws/d", "df/d", "ht/d", "hb/d", "w/d", "h/d"):
         data[safe_name(r)] = ("design", np.array([q.get(r, np.nan) for q in ratios]),
                               {"unit": "1", "long_name": r})
-    data["mu"] = ("design", np.array([c.mu if c else np.nan for c in table.cells]),
+    data["mu"] = ("design", np.array([c.mu if c else np.nan for c in cells]),
                   {"unit": "Pa", "long_name": "wall shear modulus"})
     data["mu_b"] = ("design", np.array([c.bottom_material.shear_modulus
                                         if c and c.bottom_material else np.nan
-                                        for c in table.cells]),
+                                        for c in cells]),
                     {"unit": "Pa", "long_name": "bottom-wall shear modulus"})
-    data["valid"] = ("design", np.array([c is not None for c in table.cells]))
+    data["jm"] = ("design", np.array([float(c.material.params.get("jm", np.nan)) if c
+                                      else np.nan for c in cells]),
+                  {"unit": "1", "long_name": "wall Gent Jm (NaN for other laws)"})
+    if spec.kind == "twisting":
+        data["tilt"] = ("design", np.array([c.tilt if isinstance(c, TiltedCell) else np.nan
+                                            for c in table.cells]),
+                        {"unit": "rad", "long_name": "chamber tilt"})
+    data["valid"] = ("design", np.array([c is not None for c in cells]))
     data["invalid_reason"] = ("design", _strings([reasons.get(i, "") for i in range(n)]))
     return xr.Dataset(data, coords={"design": np.arange(n, dtype=np.int64)},
-                      attrs={"spec_hash": spec.spec_hash})
+                      attrs={"spec_hash": spec.spec_hash, "kind": spec.kind})
 
 
 def _atomic_zarr(ds: Any, final: Path) -> None:
@@ -379,6 +397,45 @@ class SweepStore:
         else:
             os.rename(tmp, final)
         return final
+
+
+def collect_parts(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
+    """The finished designs of a sweep folder, read from its parts (no merge, no results
+    file needed: usable while the sweep runs). One row per finished design, ascending
+    design index; a success supersedes a failure of the same design. Curves are padded
+    with NaN to the longest; ``{}`` when nothing has finished.
+    """
+    parts = sorted(p for p in (Path(path) / "parts").glob("part-*.zarr") if p.is_dir())
+    rows: dict[int, dict[str, Any]] = {}
+    for p in parts:
+        part = read_part_group(p)
+        for r, i in enumerate(part["design"]):
+            row = {k: v[r] for k, v in part.items()}
+            old = rows.get(int(i))
+            if old is None or (old["status"] != "ok" and row["status"] == "ok"):
+                rows[int(i)] = row
+    if not rows:
+        return {}
+    order = sorted(rows)
+    keys = sorted({k for r in rows.values() for k in r})
+    out: dict[str, np.ndarray] = {}
+    for k in keys:
+        vals = [rows[i].get(k) for i in order]
+        first = next(v for v in vals if v is not None)
+        if isinstance(first, np.ndarray) and first.ndim == 1:
+            m = max(len(v) for v in vals if v is not None)
+            fill: Any = False if first.dtype == bool else np.nan
+            arr = np.full((len(vals), m), fill, dtype=bool if first.dtype == bool else float)
+            for j, v in enumerate(vals):
+                if v is not None:
+                    arr[j, :len(v)] = v
+            out[k] = arr
+        elif isinstance(first, str):
+            out[k] = _strings(["" if v is None else str(v) for v in vals])
+        else:
+            out[k] = np.array([np.nan if v is None else v for v in vals])
+    out["design"] = np.asarray(order, dtype=np.int64)
+    return out
 
 
 def open_results(path: str | os.PathLike[str]) -> Any:
