@@ -1,0 +1,145 @@
+"""Sweeps of the three cell kinds, space-filling designs and the per-design FE options."""
+
+from __future__ import annotations
+
+import math
+import tomllib
+
+import numpy as np
+import pytest
+
+from multimorph.errors import SpecError
+from multimorph.geometry import CellGeometry, TiltedCell
+from multimorph.sweep import parse_sweep_spec, record_from_response
+from multimorph.sweep._backends import FeBackend, tilted_shear
+
+BASE = """
+[cell]
+length = "20 mm"
+width = "10 mm"
+height = "8 mm"
+top_wall = "1 mm"
+bottom_wall = "2 mm"
+side_wall = "2 mm"
+end_wall = "2 mm"
+
+[cell.material]
+model = "gent"
+mu = "100 kPa"
+jm = 30
+
+[cell.bottom_material]
+model = "gent"
+mu = "1 MPa"
+jm = 30
+
+[sweep]
+backend = "rom"
+outputs = ["characteristic", "curves"]
+pmax = "60 kPa"
+"""
+
+PARAMS = """
+[sweep.parameters]
+"ht/d" = { start = 0.03, stop = 0.09, scale = "log" }
+"ws/d" = { start = 0.05, stop = 0.15 }
+"""
+
+
+def spec(extra: str) -> dict:
+    return tomllib.loads(BASE + extra)
+
+
+@pytest.mark.parametrize("combine", ["sobol", "lhs"])
+def test_space_filling_designs_fill_each_range_and_are_reproducible(combine: str) -> None:
+    s = parse_sweep_spec(spec(f'combine = "{combine}"\nsamples = 64\nseed = 3\n' + PARAMS))
+    v = s.point_values()
+    assert v.shape == (64, 2)
+    assert np.all((v[:, 0] >= 0.03) & (v[:, 0] <= 0.09))
+    # a log range: log-uniform, so the geometric mean splits the sample in halves
+    below = np.mean(v[:, 0] < math.sqrt(0.03 * 0.09))
+    assert 0.4 < below < 0.6
+    # stratified in each coordinate: every eighth of the ws/d range holds 8 points (LHS)
+    # or close to it (scrambled Sobol, a (t, m, s)-net: 8 exactly too for 64 points)
+    counts = np.histogram(v[:, 1], bins=8, range=(0.05, 0.15))[0]
+    assert counts.min() >= 7 and counts.max() <= 9
+    np.testing.assert_array_equal(v, parse_sweep_spec(spec(
+        f'combine = "{combine}"\nsamples = 64\nseed = 3\n' + PARAMS)).point_values())
+
+
+def test_space_filling_designs_need_ranges_not_lists() -> None:
+    with pytest.raises(SpecError, match="ranges"):
+        parse_sweep_spec(spec('combine = "sobol"\nsamples = 8\n[sweep.parameters]\n'
+                              '"ht/d" = [0.03, 0.05]\n'))
+
+
+def test_stretching_sweep_builds_mirror_symmetric_cells() -> None:
+    s = parse_sweep_spec(spec('kind = "stretching"\ncombine = "sobol"\nsamples = 8\n' + PARAMS))
+    for c in s.design_table().cells:
+        assert isinstance(c, CellGeometry) and c.symmetric
+        assert c.bottom_wall == c.top_wall and c.bottom_material == c.material
+    with pytest.raises(SpecError, match="stretching"):
+        parse_sweep_spec(spec('kind = "stretching"\n[sweep.parameters]\n"hb/d" = [0.05]\n'))
+
+
+def test_twisting_sweep_builds_tilted_cells_with_a_swept_or_fixed_tilt() -> None:
+    s = parse_sweep_spec(spec('kind = "twisting"\n[sweep.parameters]\n'
+                              '"tilt" = ["20 deg", "40 deg"]\n"ht/d" = [0.05]\n'))
+    cells = s.design_table().cells
+    assert all(isinstance(c, TiltedCell) for c in cells)
+    assert [round(math.degrees(c.tilt)) for c in cells] == [20, 40]  # type: ignore[union-attr]
+    s = parse_sweep_spec(spec('kind = "twisting"\ntilt = "30 deg"\n[sweep.parameters]\n'
+                              '"ht/d" = [0.05]\n'))
+    c = s.design_table().cells[0]
+    assert isinstance(c, TiltedCell) and c.tilt == pytest.approx(math.radians(30))
+    with pytest.raises(SpecError, match="tilt"):
+        parse_sweep_spec(spec('kind = "twisting"\n[sweep.parameters]\n"ht/d" = [0.05]\n'))
+    with pytest.raises(SpecError, match="twisting"):
+        parse_sweep_spec(spec('[sweep.parameters]\n"tilt" = ["20 deg"]\n'))
+
+
+def test_min_chamber_keeps_small_chambers_as_invalid_points_with_the_reason() -> None:
+    s = parse_sweep_spec(spec('min_chamber = 0.2\n[sweep.parameters]\n'
+                              '"ws/d" = [0.05, 0.2]\n'))
+    t = s.design_table()
+    assert t.cells[0] is not None and t.cells[1] is None  # wc = 10 - 8 = 2 mm < 4 mm
+    assert "chamber width" in t.invalid[0].reason and "min_chamber" in t.invalid[0].reason
+
+
+def test_tilted_cell_validates_its_tilt() -> None:
+    cell = parse_sweep_spec(spec('[sweep.parameters]\n"ht/d" = [0.05]\n')).base
+    for bad in (0.0, math.radians(85), float("nan")):
+        with pytest.raises(SpecError, match="tilt"):
+            TiltedCell(cell, bad)
+    assert TiltedCell(cell, -0.5).ratios()["tilt"] == -0.5
+
+
+def test_fe_backend_options_are_checked_before_any_run() -> None:
+    be = FeBackend()
+    be.validate(6e4, {"n_cells": 1, "end": "plate", "wall_elements": 2,
+                      "length_fraction": 0.05, "pmax_rule": "rom", "pmax_factor": 1.1})
+    for bad, field in (({"end": "glued"}, "end"), ({"n_cells": 0}, "n_cells"),
+                       ({"wall_elements": 0}, "wall_elements"),
+                       ({"length_fraction": 2.0}, "length_fraction"),
+                       ({"pmax_rule": "guess"}, "pmax_rule"), ({"pmax_factor": -1}, "pmax_factor"),
+                       ({"no_such_setting": 1}, "not an FE setting")):
+        with pytest.raises(SpecError, match=field):
+            be.validate(6e4, bad)
+
+
+def test_tilted_shear_is_the_twisting_modules_rule() -> None:
+    """γ = (λ_mid − 1) sin 2|β|, the rule of ``device`` twisting modules (on a synthetic path)."""
+    from multimorph.response import EquilibriumPath, build_response
+
+    cell = parse_sweep_spec(spec('[sweep.parameters]\n"ht/d" = [0.05]\n')).base
+    n = 6
+    path = EquilibriumPath(pressure=np.linspace(0, 5e4, n), curvature=np.linspace(0, 10, n),
+                           twist_rate=np.zeros(n), axial_stretch=np.linspace(1, 1.05, n),
+                           volume=np.linspace(1e-6, 2e-6, n), peak_stretch=np.ones(n),
+                           stable=np.ones(n, bool))
+    resp = build_response(path, length=cell.length, shear_modulus=cell.mu, backend="rom")
+    lam = path.axial_stretch * (1 + path.curvature * cell.height / 2)
+    np.testing.assert_allclose(tilted_shear(resp, cell, -math.radians(30)),
+                               (lam - 1) * math.sin(math.radians(60)))
+    rec = record_from_response(resp, ["curves"])
+    assert set(rec) >= {"axial_stretch", "volume", "pressure", "stable"}
