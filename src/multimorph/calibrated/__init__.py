@@ -15,6 +15,8 @@ from multimorph.calibrated._dataset import (
     load_reference,
     reference_spec,
 )
+from multimorph.calibrated._model import CalibratedModel, CalibrationWarning, load_model
 
-__all__ = ["CURVES", "HOLDOUT_FRACTION", "REFERENCE_SETS", "SPLIT_SEED", "ReferenceSet",
-           "is_holdout", "load_reference", "reference_spec"]
+__all__ = ["CURVES", "HOLDOUT_FRACTION", "REFERENCE_SETS", "SPLIT_SEED", "CalibratedModel",
+           "CalibrationWarning", "ReferenceSet", "is_holdout", "load_model", "load_reference",
+           "reference_spec"]

@@ -189,6 +189,16 @@ def _strains_on(module: Module, path: Any) -> dict[str, np.ndarray]:
     eps = lam - 1.0
     beta = module.tilt
     R = module.shaft_radius + 0.5 * cell.height
+    shear = path.extra.get("shear") if path.extra else None
+    if shear is not None and np.shape(shear) == kappa.shape:
+        # a tilted cell's own strip shear (calibrated model, FE), in the sense of its tilt:
+        # τ = γ / R in the module's sense; the axial part by the same chamber-axis rule,
+        # ε = γ / sin 2|β| along the chamber axis gives ε cos²β along the strip
+        gamma = np.asarray(shear, float)
+        tau = math.copysign(1.0, beta) * gamma / R
+        stretch = 1.0 + gamma * math.cos(beta) ** 2 / math.sin(2.0 * abs(beta))
+        return {"bend": zero, "twist": tau, "stretch": stretch, "bulge": bulge,
+                "measure": tau * module.length}
     tau = eps * math.sin(2.0 * beta) / R
     return {"bend": zero, "twist": tau, "stretch": 1.0 + eps * math.cos(beta) ** 2,
             "bulge": bulge, "measure": tau * module.length}

@@ -1,0 +1,108 @@
+"""The calibrated box: the ranges of the dimensionless groups the FE data set covers, and
+the model inputs of a cell (its groups, scaled to the box)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from multimorph.geometry import CellGeometry, TiltedCell
+
+__all__ = ["GROUP_NAMES", "Box", "cell_groups", "equivalent_jm"]
+
+#: The groups of each cell kind, in input order (``mu_b/mu`` the bottom-to-wall modulus
+#: ratio, ``jm`` the wall's Gent Jm or its equivalent, ``tilt`` in rad).
+GROUP_NAMES = {
+    "bending": ("ht/d", "ws/d", "df/d", "w/d", "h/d", "hb/d", "mu_b/mu", "jm"),
+    "stretching": ("ht/d", "ws/d", "df/d", "w/d", "h/d", "jm"),
+    "twisting": ("ht/d", "ws/d", "df/d", "w/d", "h/d", "hb/d", "mu_b/mu", "jm", "tilt"),
+}
+#: Groups sampled and scaled logarithmically (the others linearly).
+_LINEAR = ("df/d", "tilt")
+_SPEC_NAME = {"jm": "cell.material.jm"}
+
+
+def equivalent_jm(material: Any) -> float:
+    """The Gent Jm of a wall material: its own for Gent; otherwise the Jm of the Gent law
+    with the same μ that best matches its uniaxial nominal stress over λ ∈ [1.05, 3]
+    (relative least squares) — how a law outside the calibrated family is placed in it."""
+    if material.model == "gent":
+        return float(material.params["jm"])
+    from scipy.optimize import minimize_scalar
+
+    from multimorph.materials import Material
+
+    lam = np.linspace(1.05, 3.0, 40)
+    ref = np.asarray(material.nominal_stress("uniaxial", lam), float)
+    mu = material.shear_modulus
+
+    def cost(log_jm: float) -> float:
+        g = Material("gent", {"mu": mu, "jm": math.exp(log_jm)})
+        s = np.asarray(g.nominal_stress("uniaxial", lam), float)
+        return float(np.sum(((s - ref) / ref) ** 2))
+
+    res = minimize_scalar(cost, bounds=(math.log(7.0), math.log(1e4)), method="bounded")
+    return float(math.exp(res.x))
+
+
+def cell_groups(cell: CellGeometry | TiltedCell) -> dict[str, float]:
+    """Every group of :data:`GROUP_NAMES` that applies to ``cell``."""
+    c = cell.cell if isinstance(cell, TiltedCell) else cell
+    assert c.bottom_material is not None
+    g = dict(c.ratios())
+    g["mu_b/mu"] = c.bottom_material.shear_modulus / c.mu
+    g["jm"] = equivalent_jm(c.material)
+    if isinstance(cell, TiltedCell):
+        g["tilt"] = abs(cell.tilt)
+    return g
+
+
+@dataclass(frozen=True)
+class Box:
+    """Lower and upper bounds of the groups of one kind (the FE data set's sampling box)."""
+
+    kind: str
+    names: tuple[str, ...]
+    low: np.ndarray
+    high: np.ndarray
+
+    @classmethod
+    def from_spec(cls, kind: str, spec: Any) -> Box:
+        """The box of a reference sweep spec (its parameter ranges)."""
+        names = GROUP_NAMES[kind]
+        by_name = {q.name: q for q in spec.parameters}
+        low, high = [], []
+        for n in names:
+            q = by_name[_SPEC_NAME.get(n, n)]
+            low.append(q.low)
+            high.append(q.high)
+        return cls(kind, names, np.array(low, float), np.array(high, float))
+
+    def scaled(self, values: np.ndarray) -> np.ndarray:
+        """Values (n, k) of the groups mapped to [0, 1] per group (log or linear)."""
+        v = np.atleast_2d(np.asarray(values, float))
+        out = np.empty_like(v)
+        for j, n in enumerate(self.names):
+            if n in _LINEAR:
+                out[:, j] = (v[:, j] - self.low[j]) / (self.high[j] - self.low[j])
+            else:
+                out[:, j] = (np.log(v[:, j]) - math.log(self.low[j])) / (
+                    math.log(self.high[j]) - math.log(self.low[j]))
+        return out
+
+    def outside(self, groups: dict[str, float], rtol: float = 1e-6) -> dict[str, tuple[float,
+                                                                                     float, float]]:
+        """The groups outside the box: name → (value, low, high)."""
+        out = {}
+        for j, n in enumerate(self.names):
+            v = groups[n]
+            lo, hi = self.low[j], self.high[j]
+            if not (lo * (1 - rtol) <= v <= hi * (1 + rtol)):
+                out[n] = (float(v), float(lo), float(hi))
+        return out
+
+    def values_of(self, groups: dict[str, float]) -> np.ndarray:
+        return np.array([groups[n] for n in self.names], float)

@@ -1,0 +1,249 @@
+"""Fitting the calibrated cell model: Ritz-feature emulators and FE-trained GPs per kind.
+
+For each kind of cell (bending, stretching, tilted):
+
+1. inputs: the design's groups scaled to the calibrated box, and its Ritz features
+   (:mod:`._ritz`: the reduced model's pressures at two inflations and its signal), which
+   carry the physics the Ritz model gets right — how stiff the cell is at small inflation;
+2. outputs: the FE path on the grid of chamber volumes (:mod:`._representation`);
+3. a multi-output GP (:mod:`._gp`) from inputs to outputs, trained on the designs of the
+   calibration split (the held-out 20 % and the 24-design grid are never seen).
+
+For speed the Ritz features are themselves emulated: a GP over the groups trained on the
+Ritz training table (:mod:`._ritz_table`), one for the bending box (bending and tilted
+cells) and one for the stretching box. Everything is saved to ``data/model.npz`` with its
+provenance (``data/model.json``).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import sys
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from multimorph.calibrated._box import GROUP_NAMES, Box, cell_groups
+from multimorph.calibrated._dataset import DATA_DIR, ReferenceSet, load_reference, reference_spec
+from multimorph.calibrated._gp import MultiOutputGP, fit_gp
+from multimorph.calibrated._representation import QUANTITIES, T_GRID, grid_values
+from multimorph.calibrated._ritz import ritz_features
+
+__all__ = ["KIND_SETS", "MODEL_FILE", "TrainingData", "fe_training_data", "fit_and_save",
+           "model_inputs"]
+
+MODEL_FILE = DATA_DIR / "model.npz"
+MODEL_MANIFEST = DATA_DIR / "model.json"
+#: The calibration sets of each kind.
+KIND_SETS = {"bending": ("bending",), "stretching": ("stretching",), "twisting": ("twisting",)}
+#: The emulator family of each kind's Ritz features.
+FAMILY = {"bending": "bending", "twisting": "bending", "stretching": "stretching"}
+
+
+def _log(msg: str) -> None:
+    print(f"[calibrate] {msg}", file=sys.stderr, flush=True)
+
+
+def kind_features(kind: str, feats: np.ndarray, tilt: np.ndarray | None = None) -> np.ndarray:
+    """The Ritz features a kind's GP takes (n, 3): log P at t = 0.25 and 0.75 and the
+    signal over t at t = 0.25 (tilted cells: the mid-height strain times sin 2|β|)."""
+    feats = np.atleast_2d(feats)
+    if kind == "twisting":
+        assert tilt is not None
+        sig = feats[:, 3] * np.sin(2.0 * np.abs(np.asarray(tilt, float)))
+    else:
+        sig = feats[:, 2]
+    return np.column_stack([feats[:, 0], feats[:, 1], sig])
+
+
+def model_inputs(box: Box, groups: np.ndarray, kfeats: np.ndarray, fmean: np.ndarray,
+                 fstd: np.ndarray) -> np.ndarray:
+    """GP inputs: scaled groups and standardised Ritz features."""
+    return np.column_stack([box.scaled(groups), (kfeats - fmean) / fstd])
+
+
+@dataclass(frozen=True, eq=False)
+class TrainingData:
+    """FE grid data of one kind (all finished designs of its sets, and the split)."""
+
+    kind: str
+    set_name: np.ndarray
+    design: np.ndarray
+    groups: np.ndarray
+    features: np.ndarray
+    y: np.ndarray
+    mask: np.ndarray
+    holdout: np.ndarray
+    cells: list[Any]
+    paths: list[dict[str, np.ndarray]]
+
+
+def fe_signal(kind: str, path: dict[str, np.ndarray], n_cells: int) -> np.ndarray:
+    """The FE signal of a stored path: the end rotation per cell (bending, = κd), the axial
+    stretch − 1 (stretching) or the strip shear (tilted)."""
+    if kind == "bending":
+        return np.asarray(path["bend_angle"], float) / n_cells
+    if kind == "stretching":
+        return np.asarray(path["axial_stretch"], float) - 1.0
+    return np.asarray(path["shear"], float)
+
+
+def fe_training_data(kind: str, sets: dict[str, ReferenceSet] | None = None,
+                     set_names: tuple[str, ...] | None = None) -> TrainingData:
+    """Grid data of the finished, successful designs of ``kind``'s sets."""
+    sets = sets if sets is not None else load_reference()
+    names = set_names or KIND_SETS[kind]
+    box_names = GROUP_NAMES[kind]
+    rows: dict[str, list[Any]] = {k: [] for k in ("set", "design", "groups", "y", "mask",
+                                                   "holdout", "cell", "path")}
+    for name in names:
+        ref = sets.get(name)
+        if ref is None:
+            continue
+        hold = ref.holdout
+        for r in np.flatnonzero(ref.ok):
+            cell = ref.cell(int(r))
+            c = cell.cell if hasattr(cell, "tilt") else cell
+            path = ref.path(int(r))
+            n_cells = int(ref.meta[r].get("n_cells", 1))
+            v0 = c.wc * c.hc * c.dc * n_cells
+            t = np.log(np.asarray(path["volume"], float) / v0)
+            y, cov = grid_values(t, path["pressure"], fe_signal(kind, path, n_cells),
+                                 path["peak_stretch"], path["axial_stretch"], c.mu, kind)
+            g = cell_groups(cell)
+            rows["set"].append(name)
+            rows["design"].append(int(ref.design[r]))
+            rows["groups"].append([g[n] for n in box_names])
+            rows["y"].append(y)
+            rows["mask"].append(cov)
+            rows["holdout"].append(bool(hold[r]))
+            rows["cell"].append(cell)
+            rows["path"].append(path)
+    n = len(rows["set"])
+    _log(f"{kind}: {n} FE designs; computing their Ritz features")
+    feats = ritz_features(rows["cell"]) if n else np.zeros((0, 4))
+    return TrainingData(
+        kind=kind, set_name=np.array(rows["set"]), design=np.array(rows["design"]),
+        groups=np.array(rows["groups"], float).reshape(n, len(box_names)), features=feats,
+        y=np.array(rows["y"]).reshape(n, len(T_GRID), len(QUANTITIES[kind])),
+        mask=np.array(rows["mask"], bool).reshape(n, len(T_GRID)),
+        holdout=np.array(rows["holdout"], bool), cells=rows["cell"], paths=rows["path"])
+
+
+def _tilts(data: TrainingData) -> np.ndarray | None:
+    if data.kind != "twisting":
+        return None
+    return np.array([abs(c.tilt) for c in data.cells])
+
+
+def fit_kind(data: TrainingData, box: Box, *, train: np.ndarray | None = None,
+             restarts: int = 2) -> tuple[MultiOutputGP, np.ndarray, np.ndarray]:
+    """The FE GP of one kind on the rows ``train`` (default: not held out, features
+    finite); returns (gp, feature mean, feature std)."""
+    kf = kind_features(data.kind, data.features, _tilts(data))
+    ok = np.all(np.isfinite(kf), axis=1)
+    sel = (~data.holdout if train is None else train) & ok
+    fmean = kf[sel].mean(axis=0)
+    fstd = kf[sel].std(axis=0) + 1e-12
+    x = model_inputs(box, data.groups[sel], kf[sel], fmean, fstd)
+    nq = len(QUANTITIES[data.kind])
+    y = data.y[sel].reshape(int(sel.sum()), -1)
+    mask = np.repeat(data.mask[sel], nq, axis=1)
+    # the kernel is fitted on the pressure and the signal at grid volumes most designs reach
+    reach = data.mask[sel].mean(axis=0)
+    jj = np.flatnonzero(reach >= 0.9)
+    jj = jj[np.linspace(0, len(jj) - 1, min(6, len(jj))).astype(int)]
+    fit_out = np.array([j * nq + q for j in jj for q in (0, 1)])
+    gp = fit_gp(x, y, mask, fit_outputs=fit_out, restarts=restarts)
+    return gp, fmean, fstd
+
+
+def fit_emulator(family: str, table: dict[str, np.ndarray], box: Box,
+                 max_points: int = 2048) -> MultiOutputGP:
+    """The Ritz-feature emulator of one box: a GP over the scaled groups."""
+    g, f = table["groups"], table["features"]
+    ok = np.all(np.isfinite(f), axis=1)
+    g, f = g[ok][:max_points], f[ok][:max_points]
+    x = box.scaled(g)
+    mask = np.ones(f.shape, bool)
+    sub = np.arange(len(x))[: min(len(x), 600)]
+    gp_sub = fit_gp(x[sub], f[sub], mask[sub], restarts=1)
+    # refit the weights on all points with the kernel found on the subset
+    return refit_weights(gp_sub, x, f, mask)
+
+
+def refit_weights(gp: MultiOutputGP, x: np.ndarray, y: np.ndarray, mask: np.ndarray,
+                  ) -> MultiOutputGP:
+    """The same kernel and linear means solved on new data."""
+    from scipy.linalg import cho_factor, cho_solve
+
+    from multimorph.calibrated._gp import matern52
+
+    n, m = y.shape
+    A = np.column_stack([np.ones(n), x])
+    resid = (y - A @ gp.coef) / gp.scale
+    K = matern52(x, x, gp.length) + gp.noise * np.eye(n)
+    c = cho_factor(K, lower=True)
+    weights = np.zeros((n, m))
+    for j in range(m):
+        weights[:, j] = cho_solve(c, np.where(mask[:, j], resid[:, j], 0.0))
+    return MultiOutputGP(x=x, length=gp.length, noise=gp.noise, mask=mask, weights=weights,
+                         coef=gp.coef, scale=gp.scale, chol=np.linalg.cholesky(K))
+
+
+def fit_and_save() -> None:
+    """Fit every kind and emulator from the shipped data; write model.npz and model.json."""
+    from multimorph._provenance import code_version
+    from multimorph.calibrated._ritz_table import load_ritz_table
+
+    t0 = time.monotonic()
+    sets = load_reference()
+    table = load_ritz_table()
+    arrays: dict[str, np.ndarray] = {"t_grid": T_GRID}
+    manifest: dict[str, Any] = {"format": "multimorph-calibrated-model/1",
+                                "code_version": code_version(), "kinds": {},
+                                "emulators": {}}
+    for family, tab in table.items():
+        box = Box.from_spec(family, reference_spec(family))
+        emu = fit_emulator(family, tab, box)
+        arrays.update(emu.to_arrays(f"emulator/{family}/"))
+        manifest["emulators"][family] = {"designs": len(emu.x),
+                                         "length_scales": emu.length.round(4).tolist()}
+        _log(f"emulator {family}: {len(emu.x)} Ritz designs")
+    for kind in KIND_SETS:
+        if not any(s in sets for s in KIND_SETS[kind]):
+            continue
+        data = fe_training_data(kind, sets)
+        train = ~data.holdout & np.all(np.isfinite(kind_features(
+            kind, data.features, _tilts(data))), axis=1)
+        if train.sum() < 12:
+            _log(f"{kind}: only {int(train.sum())} training designs; not fitted")
+            continue
+        box = Box.from_spec(kind, reference_spec(KIND_SETS[kind][0]))
+        gp, fmean, fstd = fit_kind(data, box)
+        arrays.update(gp.to_arrays(f"{kind}/"))
+        arrays[f"{kind}/feature_mean"] = fmean
+        arrays[f"{kind}/feature_std"] = fstd
+        arrays[f"{kind}/box_low"] = box.low
+        arrays[f"{kind}/box_high"] = box.high
+        manifest["kinds"][kind] = {
+            "sets": list(KIND_SETS[kind]), "training_designs": int(train.sum()),
+            "held_out": int(data.holdout.sum()), "length_scales": gp.length.round(4).tolist(),
+            "noise": gp.noise, "groups": list(GROUP_NAMES[kind]),
+            "box": {n: [float(lo), float(hi)] for n, lo, hi in
+                    zip(box.names, box.low, box.high, strict=True)}}
+        _log(f"{kind}: fitted on {int(train.sum())} designs")
+    manifest["fit_time_s"] = round(time.monotonic() - t0, 1)
+    tmp = MODEL_FILE.with_name(f".{MODEL_FILE.stem}.tmp.npz")
+    np.savez_compressed(tmp, **arrays)
+    os.replace(tmp, MODEL_FILE)
+    MODEL_MANIFEST.write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
+    _log(f"wrote {MODEL_FILE} in {manifest['fit_time_s']} s")
+
+
+def finite_log(x: float) -> float:
+    return math.log(x) if x > 0 else -math.inf

@@ -1,0 +1,315 @@
+"""The calibrated cell model at run time: groups → Ritz features → FE-trained GP → path.
+
+:class:`CalibratedModel` loads ``data/model.npz`` (written by
+``python -m multimorph.calibrated.fit model``) and predicts, for any valid cell, the whole
+equilibrium path that the project's 3D FE would give — pressure, signal (κd, axial stretch
+or strip shear), largest stretch and axial strain against the chamber volume — and from it
+the shared :class:`~multimorph.response.Response` (observed curves, Pc, Ph, failure) with
+``backend = "calibrated"``.
+
+It knows its support: a cell whose groups lie outside the calibrated box, or whose wall is
+not in the data set's law family in a way it cannot place (see ``equivalent_jm``), is
+answered by the Ritz model with ``meta["calibration"]["inside"] = False`` and the groups
+that are outside, and a warning (:class:`CalibrationWarning`). Every prediction carries an
+uncertainty: the GP's predictive standard deviation of log P, turned into a range of Pc.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from multimorph.calibrated._box import Box, cell_groups
+from multimorph.calibrated._fit import (
+    FAMILY,
+    MODEL_FILE,
+    MODEL_MANIFEST,
+    kind_features,
+    model_inputs,
+)
+from multimorph.calibrated._gp import MultiOutputGP, matern52
+from multimorph.calibrated._representation import QUANTITIES, T_GRID, kind_of, path_from_grid
+from multimorph.errors import MultimorphError, SpecError
+from multimorph.geometry import CellGeometry, TiltedCell
+from multimorph.response import EquilibriumPath, Response, build_response
+
+__all__ = ["SUPPORT_CORRELATION", "CalibratedModel", "CalibrationWarning", "load_model"]
+
+#: A grid volume is supported for a design when some training design that reached it is
+#: this correlated with it (kernel value); beyond the last supported volume the predicted
+#: path ends (the FE data set does not say what happens there for such a cell).
+SUPPORT_CORRELATION = 0.3
+#: Wall laws the emulated Ritz features stand for (others trace the Ritz model itself).
+_EMULATED_LAWS = ("gent",)
+
+
+class CalibrationWarning(UserWarning):
+    """A cell outside the calibrated model's support: answered by the Ritz model."""
+
+
+@dataclass(frozen=True, eq=False)
+class _Kind:
+    kind: str
+    gp: MultiOutputGP
+    box: Box
+    fmean: np.ndarray
+    fstd: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class GridPrediction:
+    """Grid predictions of a batch of same-kind cells (see :meth:`CalibratedModel.grid`)."""
+
+    kind: str
+    values: np.ndarray        # (n, J, Q)
+    std_log_p: np.ndarray     # (n, J): predictive std of log(P/μ)
+    t_end: np.ndarray         # (n,): the last supported log volume ratio
+    inside: np.ndarray        # (n,) bool
+    outside: list[dict[str, tuple[float, float, float]]]
+
+
+class CalibratedModel:
+    """The fitted calibrated cell model (see the module docstring)."""
+
+    def __init__(self, arrays: Any, manifest: dict[str, Any]) -> None:
+        self.manifest = manifest
+        self.t_grid = np.asarray(arrays["t_grid"], float)
+        if not np.allclose(self.t_grid, T_GRID):
+            raise MultimorphError("calibrated model: its volume grid is not this code's; refit "
+                                  "it (python -m multimorph.calibrated.fit model)")
+        self.kinds: dict[str, _Kind] = {}
+        for kind in manifest.get("kinds", {}):
+            box = Box(kind, tuple(manifest["kinds"][kind]["groups"]),
+                      np.asarray(arrays[f"{kind}/box_low"]), np.asarray(arrays[f"{kind}/box_high"]))
+            self.kinds[kind] = _Kind(kind, MultiOutputGP.from_arrays(arrays, f"{kind}/"), box,
+                                     np.asarray(arrays[f"{kind}/feature_mean"]),
+                                     np.asarray(arrays[f"{kind}/feature_std"]))
+        self.emulators = {fam: MultiOutputGP.from_arrays(arrays, f"emulator/{fam}/")
+                          for fam in manifest.get("emulators", {})}
+        self.emulator_boxes = {}
+        for fam in self.emulators:
+            from multimorph.calibrated._dataset import reference_spec
+
+            self.emulator_boxes[fam] = Box.from_spec(fam, reference_spec(fam))
+
+    # ------------------------------------------------------------------ support
+    def support(self, cell: CellGeometry | TiltedCell) -> dict[str, Any]:
+        """``{"inside": bool, "kind": ..., "outside": {group: [value, low, high]}, "reason"}``."""
+        kind = kind_of(cell)
+        if kind not in self.kinds:
+            return {"inside": False, "kind": kind, "outside": {},
+                    "reason": f"no calibration for {kind} cells yet"}
+        groups = cell_groups(cell)
+        out = self.kinds[kind].box.outside(groups)
+        return {"inside": not out, "kind": kind,
+                "outside": {k: list(v) for k, v in out.items()},
+                "reason": "" if not out else "groups outside the calibrated box: " + ", ".join(
+                    f"{k} = {v[0]:.4g} (calibrated {v[1]:.4g} … {v[2]:.4g})"
+                    for k, v in out.items())}
+
+    # ------------------------------------------------------------------ features
+    def _features(self, kind: str, cells: Sequence[CellGeometry | TiltedCell],
+                  groups: np.ndarray) -> np.ndarray:
+        fam = FAMILY[kind]
+        straight = [c.cell if isinstance(c, TiltedCell) else c for c in cells]
+        emulable = np.array([c.material.model in _EMULATED_LAWS
+                             and c.bottom_material is not None
+                             and c.bottom_material.model in _EMULATED_LAWS for c in straight])
+        feats = np.full((len(cells), 4), np.nan)
+        if emulable.any() and fam in self.emulators:
+            ebox = self.emulator_boxes[fam]
+            fam_groups = np.array([[cell_groups(c)[n] for n in ebox.names]
+                                   for c, e in zip(cells, emulable, strict=True) if e])
+            feats[emulable] = self.emulators[fam].predict(ebox.scaled(fam_groups))
+        if (~emulable).any():
+            from multimorph.calibrated._ritz import ritz_features
+
+            feats[~emulable] = ritz_features([c for c, e in zip(cells, emulable, strict=True)
+                                              if not e])
+        tilts = (np.array([abs(c.tilt) for c in cells]) if kind == "twisting" else None)
+        return kind_features(kind, feats, tilts)
+
+    # ------------------------------------------------------------------ grid
+    def grid(self, cells: Sequence[CellGeometry | TiltedCell]) -> GridPrediction:
+        """Grid predictions for cells of one kind (inside or not: see ``inside``)."""
+        kinds = {kind_of(c) for c in cells}
+        if len(kinds) != 1:
+            raise MultimorphError("calibrated model: grid() takes cells of one kind")
+        kind = kinds.pop()
+        k = self.kinds[kind]
+        gdicts = [cell_groups(c) for c in cells]
+        groups = np.array([k.box.values_of(g) for g in gdicts])
+        outside = [k.box.outside(g) for g in gdicts]
+        inside = np.array([not o for o in outside])
+        kf = self._features(kind, cells, groups)
+        x = model_inputs(k.box, groups, kf, k.fmean, k.fstd)
+        ks = matern52(x, k.gp.x, k.gp.length)
+        lin = np.column_stack([np.ones(len(x)), x]) @ k.gp.coef
+        mean = lin + (ks @ k.gp.weights) * k.gp.scale
+        from scipy.linalg import solve_triangular
+
+        v = solve_triangular(k.gp.chol, ks.T, lower=True)
+        rel = np.sqrt(np.maximum(1.0 + k.gp.noise - np.sum(v * v, axis=0), k.gp.noise))
+        nq = len(QUANTITIES[kind])
+        J = len(T_GRID)
+        values = mean.reshape(len(x), J, nq)
+        std_log_p = rel[:, None] * k.gp.scale.reshape(J, nq)[None, :, 0]
+        # support: the largest grid volume whose training designs include a close one
+        reach = k.gp.mask.reshape(len(k.gp.x), J, nq)[:, :, 0]
+        best = np.stack([np.where(reach[:, j][None, :], ks, 0.0).max(axis=1)
+                         for j in range(J)], axis=1)
+        ok = best >= SUPPORT_CORRELATION
+        last = np.where(ok.any(axis=1), J - 1 - np.argmax(ok[:, ::-1], axis=1), 0)
+        t_end = T_GRID[last]
+        return GridPrediction(kind, values, std_log_p, t_end, inside, outside)
+
+    # ------------------------------------------------------------------ responses
+    def responses(self, cells: Sequence[CellGeometry | TiltedCell], p_max: float, *,
+                  fallback: bool = True) -> list[Response | Exception]:
+        """A :class:`Response` per cell (Ritz fallback with a warning outside the support;
+        an exception instance for a cell that could not be answered)."""
+        p_max = float(p_max)
+        if not (math.isfinite(p_max) and p_max > 0):
+            raise SpecError(f"p_max must be a positive pressure, got {p_max!r} Pa")
+        out: list[Response | Exception] = [MultimorphError("not evaluated")] * len(cells)
+        by_kind: dict[str, list[int]] = {}
+        for i, c in enumerate(cells):
+            by_kind.setdefault(kind_of(c), []).append(i)
+        for kind, idx in by_kind.items():
+            if kind not in self.kinds:
+                for i in idx:
+                    out[i] = self._fallback(cells[i], p_max, {
+                        "inside": False, "kind": kind, "outside": {},
+                        "reason": f"no calibration for {kind} cells"}, fallback)
+                continue
+            pred = self.grid([cells[i] for i in idx])
+            for r, i in enumerate(idx):
+                if not pred.inside[r]:
+                    sup = self.support(cells[i])
+                    out[i] = self._fallback(cells[i], p_max, sup, fallback)
+                    continue
+                try:
+                    out[i] = self._response(cells[i], pred, r, p_max)
+                except Exception as exc:  # kept per design, as other batch models do
+                    out[i] = exc
+        return out
+
+    def response(self, cell: CellGeometry | TiltedCell, p_max: float) -> Response:
+        """One cell's :class:`Response` (raises where it has none)."""
+        r = self.responses([cell], p_max)[0]
+        if isinstance(r, Exception):
+            raise r
+        return r
+
+    def _fallback(self, cell: CellGeometry | TiltedCell, p_max: float, sup: dict[str, Any],
+                  fallback: bool) -> Response | Exception:
+        msg = (f"calibrated model: {sup['reason']}; "
+               + ("answering with the Ritz model (about twice as stiff as FE)"
+                  if fallback else "no prediction"))
+        warnings.warn(msg, CalibrationWarning, stacklevel=3)
+        if not fallback:
+            return MultimorphError(msg)
+        from multimorph.rom import solve_cell
+
+        straight = cell.cell if isinstance(cell, TiltedCell) else cell
+        try:
+            r = solve_cell(straight, p_max)
+        except Exception as exc:
+            return exc
+        cal = {"inside": False, "kind": sup["kind"], "outside": sup["outside"],
+               "reason": sup["reason"], "fallback": "ritz"}
+        return r.with_meta(model="ritz", calibration=cal)
+
+    def _response(self, cell: CellGeometry | TiltedCell, pred: GridPrediction, r: int,
+                  p_max: float) -> Response:
+        c = cell.cell if isinstance(cell, TiltedCell) else cell
+        t_end = float(pred.t_end[r])
+        path = path_from_grid(pred.values[r], cell, t_end=t_end)
+        path, reached = _truncate(path, p_max)
+        signal = {"bending": "curvature", "stretching": "axial_stretch",
+                  "twisting": "twist_rate"}[pred.kind]
+        if pred.kind == "twisting":
+            from dataclasses import replace
+
+            path = replace(path, twist_rate=np.asarray(path.extra["shear"]))
+        resp = build_response(path, length=c.length, shear_modulus=c.mu, backend="calibrated",
+                              break_stretch=c.material.break_stretch, signal=signal)
+        # the uncertainty of log P at the activation volume moves Pc (and Ph) by the same
+        # factor: a pressure scaled by f scales the whole κ(P) curve's pressures by f
+        ch = resp.characteristic
+        tt = path.extra["log_volume_ratio"]
+        std = pred.std_log_p[r]
+
+        def band(pc: float | None) -> list[float | None]:
+            if pc is None:
+                return [None, None]
+            tc = float(np.interp(pc, np.maximum.accumulate(path.pressure), tt))
+            s = float(np.interp(tc, T_GRID, std))
+            return [pc * math.exp(-s), pc * math.exp(s)]
+
+        meta = {"model": "calibrated", "points": len(path),
+                "calibration": {
+                    "inside": True, "kind": pred.kind, "outside": {},
+                    "log_pressure_std": float(np.interp(min(1.0, t_end), T_GRID, std)),
+                    "critical_pressure_range": band(ch.critical),
+                    "hardening_pressure_range": band(ch.hardening),
+                    "volume_ratio_end": math.exp(float(tt[-1])),
+                    "reached_p_max": reached,
+                    "model_version": self.manifest.get("code_version", "")}}
+        return resp.with_meta(**meta)
+
+
+def _truncate(path: EquilibriumPath, p_max: float) -> tuple[EquilibriumPath, bool]:
+    """The path up to the first point where the pressure reaches ``p_max`` (the last point
+    interpolated onto it), and whether it does."""
+    P = np.asarray(path.pressure)
+    over = np.flatnonzero(P >= p_max)
+    if over.size == 0:
+        return path, False
+    j = int(over[0])
+    if j == 0:
+        return path.take(slice(0, 1)), True
+    f = (p_max - P[j - 1]) / (P[j] - P[j - 1])
+    keep = path.take(slice(0, j + 1))
+    arrays = {}
+    for name in ("pressure", "curvature", "twist_rate", "axial_stretch", "volume",
+                 "peak_stretch"):
+        a = np.array(getattr(keep, name), float)
+        a[-1] = a[-2] + f * (a[-1] - a[-2])
+        arrays[name] = a
+    extra = {}
+    for k, v in (keep.extra or {}).items():
+        a = np.array(v, float)
+        if a.ndim == 1 and len(a) == len(P[: j + 1]):
+            a[-1] = a[-2] + f * (a[-1] - a[-2])
+        extra[k] = a
+    from dataclasses import replace
+
+    return replace(keep, **arrays, extra=extra), True
+
+
+@lru_cache(maxsize=2)
+def load_model(path: str | None = None) -> CalibratedModel:
+    """The shipped calibrated model (cached).
+
+    Raises
+    ------
+    MultimorphError
+        The model file is missing (fit it with ``python -m multimorph.calibrated.fit model``).
+    """
+    p = Path(path) if path is not None else MODEL_FILE
+    m = p.with_name("model.json") if path is not None else MODEL_MANIFEST
+    if not p.exists() or not m.exists():
+        raise MultimorphError(f"{p}: the calibrated model is missing (fit it with python -m "
+                              "multimorph.calibrated.fit model)")
+    with np.load(p, allow_pickle=False) as z:
+        arrays = {k: z[k] for k in z.files}
+    return CalibratedModel(arrays, json.loads(m.read_text()))

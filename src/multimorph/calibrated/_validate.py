@@ -1,0 +1,140 @@
+"""Model against FE on the held-out designs: errors of Pc, Ph, the curves, per cell kind.
+
+Used by ``python -m multimorph.calibrated.validate`` (docs/validation.md and its figures)
+and the tests. Definitions (the same for every model compared):
+
+* Pc, Ph: the shared definitions of :mod:`multimorph.response`, applied to the FE path as
+  stored in the data set and to the model's path; relative error |model − FE| / FE; a value
+  one side has and the other not counts as a miss.
+* curve error: on the observed loading curves, at every FE loading pressure up to 1.5 Pc
+  (FE), |y_model(P) − y_FE(P)| divided by the FE signal's range over [0, 1.5 Pc]; the
+  largest over the pressures is the design's curve error (the criterion: ≤ 10 %).
+* signal at 1.5 Pc: y on each model's loading curve at 1.5 × the FE Pc.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from multimorph.response import EquilibriumPath, Response, build_response
+
+__all__ = ["DesignComparison", "compare", "fe_response", "signal_of_loading", "summary"]
+
+
+def fe_response(path: dict[str, np.ndarray], cell: Any, kind: str, n_cells: int = 1,
+                ) -> Response:
+    """The Response of a stored FE path, read on the kind's signal (bending: the end
+    rotation per cell as κd; stretching: the axial stretch; tilted: the strip shear)."""
+    c = cell.cell if hasattr(cell, "tilt") else cell
+    n = len(path["pressure"])
+    curvature = np.asarray(path["curvature"], float)
+    twist = np.zeros(n)
+    if kind == "bending":
+        curvature = np.asarray(path["bend_angle"], float) / (n_cells * c.length)
+    elif kind == "twisting":
+        twist = np.asarray(path["shear"], float)
+    p = EquilibriumPath(pressure=np.asarray(path["pressure"], float), curvature=curvature,
+                        twist_rate=twist, axial_stretch=np.asarray(path["axial_stretch"], float),
+                        volume=np.asarray(path["volume"], float),
+                        peak_stretch=np.asarray(path["peak_stretch"], float),
+                        stable=np.asarray(path["stable"], bool))
+    signal = {"bending": "curvature", "stretching": "axial_stretch", "twisting": "twist_rate"}
+    return build_response(p, length=c.length, shear_modulus=c.mu, backend="fe",
+                          signal=signal[kind])
+
+
+def signal_of_loading(resp: Response, kind: str) -> tuple[np.ndarray, np.ndarray]:
+    """(P, y) of the loading curve: κd (bending), λ − 1 (stretching), γ (tilted)."""
+    lo = resp.loading
+    P = np.asarray(lo.pressure, float)
+    if kind == "bending":
+        y = np.asarray(lo.curvature, float) * resp.length
+    elif kind == "stretching":
+        y = np.asarray(lo.axial_stretch, float) - 1.0
+    else:
+        y = np.asarray(lo.twist_rate, float)
+    return P, y
+
+
+def _rel(a: float | None, b: float | None) -> float:
+    if a is None or b is None or not (math.isfinite(a) and math.isfinite(b)) or b == 0:
+        return math.nan
+    return abs(a - b) / abs(b)
+
+
+def _interp(P: np.ndarray, y: np.ndarray, at: np.ndarray) -> np.ndarray:
+    keep = np.concatenate([[True], np.diff(P) > 0])
+    out = np.interp(at, P[keep], y[keep], right=np.nan)
+    return out
+
+
+@dataclass(frozen=True)
+class DesignComparison:
+    """One design, model against FE."""
+
+    set_name: str
+    design: int
+    kind: str
+    pc_fe: float | None
+    pc_model: float | None
+    ph_fe: float | None
+    ph_model: float | None
+    pc_error: float
+    ph_error: float
+    curve_error: float
+    y15_fe: float
+    y15_model: float
+    covered: float
+
+    def to_dict(self) -> dict[str, Any]:
+        return dict(self.__dict__)
+
+
+def compare(model: Response, fe: Response, kind: str, set_name: str = "",
+            design: int = -1) -> DesignComparison:
+    """Compare a model's Response with FE's for one design (see the module docstring)."""
+    pcf, pcm = fe.characteristic.critical, model.characteristic.critical
+    phf, phm = fe.characteristic.hardening, model.characteristic.hardening
+    Pf, yf = signal_of_loading(fe, kind)
+    Pm, ym = signal_of_loading(model, kind)
+    curve = math.nan
+    y15f = y15m = math.nan
+    covered = math.nan
+    if pcf is not None:
+        top = 1.5 * pcf
+        sel = Pf <= top
+        rng = float(np.nanmax(yf[sel]) - np.nanmin(yf[sel])) if sel.sum() > 1 else math.nan
+        ym_at = _interp(Pm, ym, Pf[sel])
+        ok = np.isfinite(ym_at)
+        covered = float(ok.mean()) if sel.any() else math.nan
+        if rng > 0 and ok.any():
+            curve = float(np.max(np.abs(ym_at[ok] - yf[sel][ok])) / rng)
+        if Pf[-1] >= top:
+            y15f = float(_interp(Pf, yf, np.array([top]))[0])
+        if Pm[-1] >= top:
+            y15m = float(_interp(Pm, ym, np.array([top]))[0])
+    return DesignComparison(set_name, int(design), kind, pcf, pcm, phf, phm, _rel(pcm, pcf),
+                            _rel(phm, phf), curve, y15f, y15m, covered)
+
+
+def summary(rows: list[DesignComparison]) -> dict[str, Any]:
+    """Median, p90 and max of the errors, and the share of curves within 10 %."""
+    def stats(v: list[float]) -> dict[str, float | int]:
+        a = np.array([x for x in v if math.isfinite(x)])
+        if a.size == 0:
+            return {"n": 0}
+        return {"n": int(a.size), "median": float(np.median(a)),
+                "p90": float(np.percentile(a, 90)), "max": float(a.max())}
+
+    curves = [r.curve_error for r in rows]
+    fin = [c for c in curves if math.isfinite(c)]
+    return {"designs": len(rows), "pc": stats([r.pc_error for r in rows]),
+            "ph": stats([r.ph_error for r in rows]), "curve": stats(curves),
+            "curves_within_10pct": (float(np.mean(np.array(fin) <= 0.10)) if fin
+                                    else math.nan),
+            "pc_missing": sum(1 for r in rows if (r.pc_fe is None) != (r.pc_model is None)),
+            "ph_missing": sum(1 for r in rows if (r.ph_fe is None) != (r.ph_model is None))}

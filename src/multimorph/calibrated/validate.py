@@ -1,0 +1,189 @@
+"""Validate the calibrated model against the FE reference data it never saw.
+
+    python -m multimorph.calibrated.validate [--out docs/validation] [--json FILE]
+
+For every cell kind: the held-out 20 % of its set, and for bending also the 24-design grid
+of docs/fe.md. Each design is predicted by the calibrated model (the whole run-time chain:
+emulated Ritz features, GP, path, shared Pc/Ph definitions) and by the Ritz model, and
+compared with its stored FE path (:mod:`._validate`). Writes parity plots of Pc, Ph and
+the signal at 1.5 Pc, the curves of the worst five designs, ``metrics.json``, and prints
+the Markdown tables of ``docs/validation.md``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import warnings
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from multimorph.calibrated._dataset import load_reference
+from multimorph.calibrated._fit import fe_training_data
+from multimorph.calibrated._validate import (
+    DesignComparison,
+    compare,
+    fe_response,
+    signal_of_loading,
+    summary,
+)
+
+SIGNAL_LABEL = {"bending": "κd (end rotation per cell, rad)", "stretching": "λ − 1",
+                "twisting": "strip shear γ"}
+CHECKS = (("bending", "bending"), ("bending", "grid24"), ("stretching", "stretching"),
+          ("twisting", "twisting"))
+
+
+def evaluate(kind: str, set_name: str) -> dict[str, Any]:
+    """Model and Ritz against FE on the held-out designs of ``set_name``."""
+    from multimorph.calibrated import CalibrationWarning, load_model
+    from multimorph.models import batch_model
+
+    data = fe_training_data(kind, set_names=(set_name,))
+    rows = np.flatnonzero(data.holdout)
+    model = load_model()
+    ritz = batch_model("ritz")
+    out: dict[str, Any] = {"kind": kind, "set": set_name, "calibrated": [], "ritz": [],
+                           "curves": []}
+    if rows.size == 0:
+        return out
+    cells = [data.cells[r] for r in rows]
+    fes = [fe_response(data.paths[r], data.cells[r], kind) for r in rows]
+    pmax = [float(np.max(data.paths[r]["pressure"])) for r in rows]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", CalibrationWarning)
+        cal = [model.responses([c], p)[0] for c, p in zip(cells, pmax, strict=True)]
+    rz = [ritz([c.cell if hasattr(c, "tilt") else c], 3.0 * p)[0]
+          for c, p in zip(cells, pmax, strict=True)]
+    for j, r in enumerate(rows):
+        for name, resp in (("calibrated", cal[j]), ("ritz", rz[j])):
+            if isinstance(resp, Exception):
+                out[name].append(None)
+                continue
+            if name == "ritz" and kind == "twisting":
+                from dataclasses import replace
+
+                from multimorph.calibrated._ritz import signal_of
+                from multimorph.response import build_response
+
+                path = replace(resp.path, twist_rate=signal_of(resp.path, cells[j]))
+                resp = build_response(path, length=resp.length,
+                                      shear_modulus=resp.shear_modulus, backend="rom",
+                                      signal="twist_rate")
+            out[name].append(compare(resp, fes[j], kind, set_name, int(data.design[r])))
+        out["curves"].append((fes[j], cal[j], rz[j]))
+    return out
+
+
+def _table(rows: list[DesignComparison | None]) -> dict[str, Any]:
+    return summary([r for r in rows if r is not None])
+
+
+def _fmt(s: dict[str, Any], key: str) -> str:
+    d = s[key]
+    if not d.get("n"):
+        return "— | — | —"
+    return f"{100 * d['median']:.1f} % | {100 * d['p90']:.1f} % | {100 * d['max']:.1f} %"
+
+
+def plot(results: list[dict[str, Any]], out: Path) -> list[str]:
+    """Parity plots and worst-five curves (PNG) per kind; returns the file names."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out.mkdir(parents=True, exist_ok=True)
+    files = []
+    for res in results:
+        kind, name = res["kind"], res["set"]
+        fig, axes = plt.subplots(1, 3, figsize=(13, 4.2))
+        panels = (("Pc", "pc_fe", "pc_model"), ("Ph", "ph_fe", "ph_model"),
+                  ("signal at 1.5 Pc (FE)", "y15_fe", "y15_model"))
+        for ax, (label, a, b) in zip(axes, panels, strict=True):
+            for model, mk, col in (("calibrated", "o", "C0"), ("ritz", "x", "C3")):
+                pts = [(getattr(r, a), getattr(r, b)) for r in res[model] if r is not None]
+                pts = [(x, y) for x, y in pts if x is not None and y is not None
+                       and math.isfinite(x) and math.isfinite(y)]
+                if not pts:
+                    continue
+                x, y = np.array(pts).T
+                scale = 1e3 if label in ("Pc", "Ph") else 1.0
+                ax.plot(x / scale, y / scale, mk, color=col, ms=4, label=model)
+            lims = ax.get_xlim()
+            ax.plot(lims, lims, "k-", lw=0.8)
+            for f in (0.9, 1.1):
+                ax.plot(lims, [f * v for v in lims], "k:", lw=0.6)
+            unit = " (kPa)" if label in ("Pc", "Ph") else ""
+            ax.set_xlabel(f"FE {label}{unit}")
+            ax.set_ylabel(f"model {label}{unit}")
+            ax.set_title(f"{label}: {kind}, {name} held out")
+            ax.legend(fontsize=8)
+        fig.tight_layout()
+        f = out / f"parity_{name}.png"
+        fig.savefig(f, dpi=110)
+        plt.close(fig)
+        files.append(f.name)
+        # worst five by curve error
+        cal = res["calibrated"]
+        order = sorted((i for i, r in enumerate(cal) if r is not None
+                        and math.isfinite(r.curve_error)),
+                       key=lambda i: -cal[i].curve_error)[:5]
+        if order:
+            fig, axes = plt.subplots(1, len(order), figsize=(3.3 * len(order), 3.4),
+                                     squeeze=False)
+            for ax, i in zip(axes[0], order, strict=False):
+                fe, cm, rz = res["curves"][i]
+                for resp, lab, st in ((fe, "FE", "k-"), (cm, "calibrated", "C0--"),
+                                      (rz, "ritz", "C3:")):
+                    if isinstance(resp, Exception):
+                        continue
+                    P, y = signal_of_loading(resp, kind)
+                    ax.plot(y, P / 1e3, st, label=lab)
+                pc = cal[i].pc_fe
+                if pc:
+                    ax.axhline(1.5 * pc / 1e3, color="grey", lw=0.6)
+                ax.set_title(f"#{cal[i].design}: curve err {100 * cal[i].curve_error:.0f} %",
+                             fontsize=9)
+                ax.set_xlabel(SIGNAL_LABEL[kind], fontsize=8)
+                ax.set_ylabel("P (kPa)")
+            axes[0][0].legend(fontsize=7)
+            fig.tight_layout()
+            f = out / f"worst_{name}.png"
+            fig.savefig(f, dpi=100)
+            plt.close(fig)
+            files.append(f.name)
+    return files
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", default="docs/validation")
+    ap.add_argument("--json", default=None)
+    args = ap.parse_args(argv)
+    sets = load_reference()
+    results = [evaluate(k, s) for k, s in CHECKS if s in sets]
+    files = plot(results, Path(args.out))
+    metrics: dict[str, Any] = {}
+    print("| kind | set | model | designs | Pc median / p90 / max | Ph median / p90 / max | "
+          "curve ≤ 10 % | curve error median / p90 / max |")
+    print("|---|---|---|---|---|---|---|---|")
+    for res in results:
+        for model in ("calibrated", "ritz"):
+            s = _table(res[model])
+            metrics[f"{res['set']}/{model}"] = s
+            within = s.get("curves_within_10pct", math.nan)
+            print(f"| {res['kind']} | {res['set']} | {model} | {s['designs']} | "
+                  f"{_fmt(s, 'pc')} | {_fmt(s, 'ph')} | "
+                  f"{100 * within:.0f} % | {_fmt(s, 'curve')} |")
+    metrics["figures"] = files
+    if args.json:
+        Path(args.json).write_text(json.dumps(metrics, indent=1, default=str) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,109 @@
+"""The calibrated model's building blocks: the GP, the volume-grid representation, the box."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from multimorph.calibrated._box import Box, equivalent_jm
+from multimorph.calibrated._gp import fit_gp, matern52
+from multimorph.calibrated._representation import T_GRID, grid_values, path_from_grid
+from multimorph.geometry import CellGeometry
+from multimorph.materials import Material
+
+
+def test_matern52_is_one_at_zero_distance_and_decays() -> None:
+    x = np.array([[0.0, 0.0], [1.0, 0.0], [3.0, 0.0]])
+    k = matern52(x, x, np.array([1.0, 1.0]))
+    np.testing.assert_allclose(np.diag(k), 1.0)
+    r = math.sqrt(5.0)
+    assert k[0, 1] == pytest.approx((1 + r + 5 / 3) * math.exp(-r))
+    assert k[0, 2] < k[0, 1] < 1.0
+
+
+def test_gp_interpolates_a_smooth_function_and_knows_where_it_has_no_data() -> None:
+    rng = np.random.default_rng(0)
+    x = rng.uniform(0, 1, (80, 2))
+
+    def f(z: np.ndarray) -> np.ndarray:
+        return np.column_stack([np.sin(3 * z[:, 0]) + z[:, 1] ** 2, 2.0 * z[:, 0] - z[:, 1]])
+
+    y = f(x)
+    mask = np.ones_like(y, bool)
+    mask[:40, 1] = False  # the second output knows only half the designs
+    gp = fit_gp(x, y, mask, restarts=1)
+    xt = rng.uniform(0.1, 0.9, (50, 2))
+    mean, std = gp.predict(xt, std=True)
+    err = np.abs(mean - f(xt))
+    assert err[:, 0].max() < 0.02 and err[:, 1].max() < 0.02   # the second is linear
+    assert np.all(std[:, 0] < 0.05)
+    far = gp.predict(np.array([[3.0, 3.0]]), std=True)[1]
+    assert far[0, 0] > 5 * std[:, 0].mean()   # outside the data the variance returns
+    # the fitted model survives a round trip through its arrays
+    from multimorph.calibrated._gp import MultiOutputGP
+
+    again = MultiOutputGP.from_arrays(gp.to_arrays("k/"), "k/")
+    np.testing.assert_array_equal(again.predict(xt), mean)
+
+
+def _cell() -> CellGeometry:
+    m = Material("gent", {"mu": 1e5, "jm": 30.0})
+    return CellGeometry(20e-3, 10e-3, 8e-3, 1e-3, 2e-3, 2e-3, 2e-3, material=m,
+                        bottom_material=m.scaled(10.0))
+
+
+def test_grid_round_trip_reproduces_a_path_with_a_limit_point() -> None:
+    """A path sampled on its own points -> volume grid -> path again: the same P(V) and κ(V)
+    (pressures within 0.5 %), with the falling branch past the limit point unstable."""
+    cell = _cell()
+    mu = cell.mu
+    def p_of(t: np.ndarray) -> np.ndarray:
+        return mu * (0.8 * t / (0.4 + t) - 0.15 * t * np.exp(-((t - 1.5) ** 2)) + 0.02 * t**2)
+
+    t = np.linspace(0.0, math.log(60.0), 300)
+    P = p_of(t)
+    y = 0.9 * t * (1.0 + t) ** 0.2
+    peak = 1.0 + 0.8 * t
+    axial = 1.0 + 0.01 * t
+    vals, cov = grid_values(t, P, y, peak, axial, mu, "bending")
+    assert cov.all()
+    path = path_from_grid(vals, cell, points=200)
+    tt = path.extra["log_volume_ratio"]
+    sel = tt > 0.02
+    np.testing.assert_allclose(path.pressure[sel], p_of(tt[sel]), rtol=5e-3)
+    np.testing.assert_allclose(path.curvature[sel] * cell.length, 0.9 * tt[sel] * (1.0 + tt[sel]) ** 0.2,
+                               rtol=5e-3)
+    dP = np.gradient(p_of(tt), tt)
+    agree = (dP > 0) == path.stable
+    assert agree[sel].mean() > 0.97
+    assert not path.stable.all()  # the falling branch is there
+
+
+def test_grid_coverage_stops_where_the_path_stops() -> None:
+    cell = _cell()
+    t = np.linspace(0, 1.0, 50)
+    vals, cov = grid_values(t, 1e5 * t, t, 1 + t, 1 + 0 * t, cell.mu, "bending")
+    assert cov[T_GRID <= 1.0].all() and not cov[T_GRID > 1.0].any()
+    # the linear regime below the first point: log P continues with slope 1 in log t
+    assert vals[0, 0] == pytest.approx(math.log(T_GRID[0]), abs=1e-6)
+
+
+def test_box_scales_groups_and_names_those_outside() -> None:
+    box = Box("bending", ("ht/d", "df/d"), np.array([0.02, 0.05]), np.array([0.2, 0.15]))
+    np.testing.assert_allclose(box.scaled(np.array([[0.02, 0.05], [0.2, 0.15]])),
+                               [[0, 0], [1, 1]], atol=1e-12)
+    assert box.scaled(np.array([[math.sqrt(0.004), 0.1]]))[0, 0] == pytest.approx(0.5)
+    assert box.outside({"ht/d": 0.3, "df/d": 0.1}) == {"ht/d": (0.3, 0.02, 0.2)}
+
+
+def test_equivalent_jm_is_gent_own_and_places_other_laws_by_their_hardening() -> None:
+    assert equivalent_jm(Material("gent", {"mu": 1e5, "jm": 33.0})) == 33.0
+    # Gent's series W = μ/2 (x + x²/(2 Jm) + x³/(3 Jm²) + …), x = I1 − 3, cut after three
+    # terms (a Yeoh law): it hardens a little less, so its equivalent Jm is a little larger
+    jm = 25.0
+    yeoh = Material("yeoh", {"c10": 5e4, "c20": 5e4 / (2 * jm), "c30": 5e4 / (3 * jm**2)})
+    assert jm < equivalent_jm(yeoh) < 1.5 * jm
+    # neo-Hooke has no lock-up: its equivalent Jm is huge
+    assert equivalent_jm(Material("neo-hooke", {"mu": 1e5})) > 500

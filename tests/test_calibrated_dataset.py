@@ -1,0 +1,86 @@
+"""The FE reference data set: archive round trip, seeding a sweep folder, the split."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from multimorph.calibrated import REFERENCE_SETS, is_holdout, reference_spec
+from multimorph.calibrated._dataset import (
+    CURVES,
+    _set_from_columns,
+    collect_set,
+    load_reference,
+    write_reference,
+)
+from multimorph.calibrated.build_dataset import seed
+
+
+def _fake_set(name: str = "grid24", rows: tuple[int, ...] = (0, 3, 5)):
+    spec = reference_spec(name)
+    n, m = len(rows), 7
+    rng = np.random.default_rng(1)
+    cols = {"design": np.array(rows), "status": np.array(["ok", "failed", "ok"]),
+            "error": np.array(["", "ContinuationError: stalled", ""]),
+            "n_points": np.array([7, 0, 5]),
+            "curve_stable": np.ones((n, m), bool),
+            "meta": [json.dumps({"nfree": 100 + i, "code_version": "x"}) for i in range(n)],
+            "critical_pressure": np.array([3e4, np.nan, 2e4])}
+    for c in ("pressure", "curvature", "peak_stretch", "axial_stretch", "volume",
+              "bend_angle", "twist_rate"):
+        arr = np.cumsum(rng.uniform(0.1, 1.0, (n, m)), axis=1)
+        arr[1] = np.nan
+        arr[2, 5:] = np.nan
+        cols[f"curve_{c}"] = arr
+    return _set_from_columns(name, cols, spec)
+
+
+def test_archive_round_trip_keeps_every_array(tmp_path) -> None:
+    ref = _fake_set()
+    arch, man = tmp_path / "ref.npz", tmp_path / "ref.json"
+    write_reference({"grid24": ref}, archive=arch, manifest=man)
+    back = load_reference(str(arch))["grid24"]
+    np.testing.assert_array_equal(back.design, ref.design)
+    np.testing.assert_array_equal(back.status, ref.status)
+    np.testing.assert_array_equal(back.values, ref.values)
+    for c in CURVES:
+        np.testing.assert_array_equal(back.curves[c], ref.curves[c])
+    assert back.meta == ref.meta
+    info = json.loads(man.read_text())["sets"]["grid24"]
+    assert info["finished"] == 3 and info["ok"] == 2 and info["failed"] == 1
+    assert info["code_versions"] == ["x"]
+    # the rebuilt cell is the spec's design at that index
+    assert back.cell(2) == reference_spec("grid24").design_table().cells[5]
+
+
+def test_a_sweep_folder_seeded_from_the_archive_holds_the_same_designs(tmp_path) -> None:
+    ref = _fake_set()
+    assert seed("grid24", tmp_path / "grid24", {"grid24": ref}) == 3
+    assert seed("grid24", tmp_path / "grid24", {"grid24": ref}) == 0  # nothing twice
+    got = collect_set("grid24", tmp_path / "grid24")
+    assert got is not None
+    np.testing.assert_array_equal(got.design, ref.design)
+    np.testing.assert_array_equal(got.status, ref.status)
+    ok = ref.status == "ok"
+    for c in ("pressure", "bend_angle"):
+        a, b = got.curves[c][ok], ref.curves[c][ok]
+        np.testing.assert_array_equal(a[:, :b.shape[1]], b)
+
+
+def test_the_holdout_split_is_a_fixed_fifth_that_does_not_move() -> None:
+    ids = np.arange(5000)
+    frac = np.mean([is_holdout("bending", i) for i in ids])
+    assert frac == pytest.approx(0.2, abs=0.02)
+    assert [is_holdout("bending", i) for i in range(40)] == [
+        is_holdout("bending", i) for i in range(40)]
+    assert all(is_holdout("grid24", i) for i in range(24))  # a validation set only
+
+
+@pytest.mark.parametrize("name", sorted(REFERENCE_SETS))
+def test_every_reference_spec_parses_and_covers_its_kind(name: str) -> None:
+    spec = reference_spec(name)
+    assert spec.backend == "fe" and spec.kind == REFERENCE_SETS[name]
+    table = spec.design_table()
+    assert len(table.valid_indices) >= (20 if name == "grid24" else 100)
