@@ -143,3 +143,22 @@ def test_tilted_shear_is_the_twisting_modules_rule() -> None:
                                (lam - 1) * math.sin(math.radians(60)))
     rec = record_from_response(resp, ["curves"])
     assert set(rec) >= {"axial_stretch", "volume", "pressure", "stable"}
+
+
+def test_a_limited_run_evaluates_the_first_pending_designs_and_a_rerun_the_rest(tmp_path) -> None:
+    """``run_sweep(limit=)`` grows a sweep in passes (the FE reference data set does)."""
+    from multimorph.sweep import open_results, run_sweep
+
+    class Count:
+        name, batch_size = "count", 2
+
+        def evaluate_batch(self, designs, pmax, outputs, options):  # noqa: ANN001, ANN201
+            return [{"critical_pressure": float(c.top_wall)} for c in designs]
+
+    s = parse_sweep_spec(spec('[sweep.parameters]\n"ht/d" = [0.03, 0.04, 0.05, 0.06, 0.07]\n'))
+    first = run_sweep(s, tmp_path / "s", scheduler="sync", limit=2, backend=Count())
+    assert first.n_run == 2 and first.n_ok == 2
+    status = open_results(tmp_path / "s")["status"].values
+    assert list(status) == ["ok", "ok", "pending", "pending", "pending"]
+    second = run_sweep(s, tmp_path / "s", scheduler="sync", backend=Count())
+    assert second.n_run == 3 and second.n_resumed == 2 and second.n_ok == 5

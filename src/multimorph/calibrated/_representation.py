@@ -33,8 +33,8 @@ from multimorph.response import EquilibriumPath
 __all__ = ["QUANTITIES", "T_GRID", "grid_values", "path_from_grid", "quantities_of"]
 
 #: The log volume ratios t = log(V/V0) of the grid: dense at small inflation (the linear
-#: regime and the approach to the ballooning), then evenly up to V/V0 = 60.
-T_GRID = np.concatenate([np.geomspace(0.01, 0.2, 7), np.linspace(0.3, math.log(60.0), 27)])
+#: regime and the approach to the ballooning), then evenly up to V/V0 = 25 (the FE data set's stop).
+T_GRID = np.concatenate([np.geomspace(0.01, 0.2, 7), np.linspace(0.3, math.log(25.0), 25)])
 #: Quantities per cell kind (see the module docstring).
 QUANTITIES = {"bending": ("log_p", "y_t", "log_l", "e_t"),
               "stretching": ("log_p", "y_t", "log_l"),

@@ -1,7 +1,7 @@
 """Build (or resume) the FE reference data set and write it into the package.
 
     python -m multimorph.calibrated.build_dataset [--sets grid24 stretching twisting bending]
-        [--work dataset] [--workers 2] [--export-every 300] [--check]
+        [--work dataset] [--workers 2] [--export-every 300] [--limit N] [--check]
 
 Each set is a ``multimorph sweep`` (``fe`` backend, Dask LocalCluster, resumable) into
 ``<work>/<set>/``. Before a set runs, its sweep folder is seeded with the designs the
@@ -84,6 +84,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--work", default="dataset", help="folder of the sweep folders")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--export-every", type=float, default=300.0, help="seconds")
+    ap.add_argument("--limit", type=int, default=None,
+                    help="run at most this many pending designs of each set in this pass")
     ap.add_argument("--check", action="store_true")
     args = ap.parse_args(argv)
     work = Path(args.work)
@@ -118,7 +120,7 @@ def main(argv: list[str] | None = None) -> int:
                 _log("archive rewritten")
 
         summary = run_sweep(reference_spec(name), folder, workers=args.workers,
-                            progress=progress)
+                            progress=progress, limit=args.limit)
         _log(f"{name}: {summary.n_ok} ok, {summary.n_failed} failed, {summary.n_invalid} "
              f"invalid of {summary.n_designs}; this run {summary.n_run} in "
              f"{summary.elapsed / 60:.1f} min")

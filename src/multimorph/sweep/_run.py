@@ -172,7 +172,7 @@ def run_sweep(spec: SweepSpec | str | os.PathLike[str], out: str | os.PathLike[s
               scheduler: str | None = None, workers: int | None = None,
               batch_size: int | None = None, retries: int = 2, client: Any = None,
               backend: SweepBackend | None = None, progress: ProgressFn | None = None,
-              retry_failed: bool = False) -> SweepSummary:
+              retry_failed: bool = False, limit: int | None = None) -> SweepSummary:
     """Run (or resume) a sweep into the folder ``out``.
 
     Parameters
@@ -199,6 +199,9 @@ def run_sweep(spec: SweepSpec | str | os.PathLike[str], out: str | os.PathLike[s
         ``progress(done, total)`` after each batch (designs of this run).
     retry_failed : bool
         Evaluate designs that failed in an earlier run again (default: keep their failure).
+    limit : int, optional
+        Evaluate at most this many of the pending designs in this run (in design order; a
+        later run goes on with the rest), e.g. to grow a long FE sweep in passes.
 
     Returns
     -------
@@ -225,6 +228,12 @@ def run_sweep(spec: SweepSpec | str | os.PathLike[str], out: str | os.PathLike[s
     with store.locked():
         store.prepare()
         done = store.finished(include_failed=not retry_failed)
+        n_resumed = int(done.size)
+        pending = np.setdiff1d(table.valid_indices, done)
+        if limit is not None:
+            if limit < 0:
+                raise SpecError(f"limit must be >= 0, got {limit}")
+            done = np.union1d(done, pending[limit:])  # not run now: planned as if done
         batches = plan_batches(table.valid_indices, done, bs)
         total = int(sum(b.size for b in batches))
         jobs = [_Job(be, b, [table.cells[i] for i in b], spec.pmax, spec.outputs, spec.options,
@@ -268,6 +277,6 @@ def run_sweep(spec: SweepSpec | str | os.PathLike[str], out: str | os.PathLike[s
     failed = [{"index": int(i), "error": str(err[i])} for i in np.flatnonzero(status == "failed")]
     return SweepSummary(
         out=store.path, results=results, n_designs=len(table), n_invalid=len(table.invalid),
-        n_ok=int(np.sum(status == "ok")), n_failed=len(failed), n_resumed=int(done.size),
+        n_ok=int(np.sum(status == "ok")), n_failed=len(failed), n_resumed=n_resumed,
         n_run=total, elapsed=time.perf_counter() - t0, compute_time=t2 - t1, scheduler=label,
         invalid=[p.to_dict() for p in table.invalid], failed=failed)
