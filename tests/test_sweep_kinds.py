@@ -152,7 +152,7 @@ def test_a_limited_run_evaluates_the_first_pending_designs_and_a_rerun_the_rest(
     class Count:
         name, batch_size = "count", 2
 
-        def evaluate_batch(self, designs, pmax, outputs, options):  # noqa: ANN001, ANN201
+        def evaluate_batch(self, designs, pmax, outputs, options):  # type: ignore[no-untyped-def]
             return [{"critical_pressure": float(c.top_wall)} for c in designs]
 
     s = parse_sweep_spec(spec('[sweep.parameters]\n"ht/d" = [0.03, 0.04, 0.05, 0.06, 0.07]\n'))
