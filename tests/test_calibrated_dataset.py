@@ -83,4 +83,4 @@ def test_every_reference_spec_parses_and_covers_its_kind(name: str) -> None:
     spec = reference_spec(name)
     assert spec.backend == "fe" and spec.kind == REFERENCE_SETS[name]
     table = spec.design_table()
-    assert len(table.valid_indices) >= (20 if name == "grid24" else 100)
+    assert len(table.valid_indices) >= {"grid24": 24, "yeoh": 8}.get(name, 100)

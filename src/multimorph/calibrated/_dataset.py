@@ -1,9 +1,10 @@
 """The FE reference data set of unit cells: what it holds, how it is read, split and rebuilt.
 
-Four sets, each a ``multimorph sweep`` spec in ``calibrated/data/specs/`` run with the
+Five sets, each a ``multimorph sweep`` spec in ``calibrated/data/specs/`` run with the
 ``fe`` backend: ``bending``, ``stretching`` and ``twisting`` (space-filling samples over
-the dimensionless groups, for the three kinds of cell the modules use) and ``grid24`` (the
-24-design grid of docs/fe.md, kept out of the calibration as a second validation set).
+the dimensionless groups, for the three kinds of cell the modules use), and two kept out
+of the calibration as validation sets: ``grid24`` (the 24-design grid of docs/fe.md) and
+``yeoh`` (bending cells with Yeoh walls, a law outside the calibrated Gent family).
 
 The finished designs ship inside the package in one compressed NumPy archive,
 ``calibrated/data/fe_reference.npz``: per set the design index, the swept parameter values
@@ -40,7 +41,9 @@ ARCHIVE = DATA_DIR / "fe_reference.npz"
 MANIFEST = DATA_DIR / "fe_reference.json"
 #: The sets of the data set and the kind of cell each holds.
 REFERENCE_SETS = {"bending": "bending", "stretching": "stretching", "twisting": "twisting",
-                  "grid24": "bending"}
+                  "grid24": "bending", "yeoh": "bending"}
+#: Sets kept out of the calibration whole (validation only).
+VALIDATION_SETS = ("grid24", "yeoh")
 #: Path quantities stored per design (SI; NaN where a backend does not give one).
 CURVES = ("pressure", "curvature", "peak_stretch", "axial_stretch", "volume", "bend_angle",
           "shear", "twist_rate")
@@ -51,8 +54,9 @@ SPLIT_SEED = 20261201
 
 
 def is_holdout(set_name: str, index: int) -> bool:
-    """Whether design ``index`` of set ``set_name`` is in the held-out split (grid24: all)."""
-    if set_name == "grid24":
+    """Whether design ``index`` of set ``set_name`` is in the held-out split (the
+    validation sets :data:`VALIDATION_SETS`: all)."""
+    if set_name in VALIDATION_SETS:
         return True
     h = hashlib.sha256(f"{set_name}:{int(index)}:{SPLIT_SEED}".encode()).digest()
     return int.from_bytes(h[:8], "big") / 2**64 < HOLDOUT_FRACTION

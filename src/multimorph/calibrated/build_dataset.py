@@ -30,7 +30,7 @@ from multimorph.calibrated._dataset import (
     write_reference,
 )
 
-ORDER = ("grid24", "stretching", "twisting", "bending")
+ORDER = ("grid24", "yeoh", "stretching", "twisting", "bending")
 
 
 def _log(msg: str) -> None:
