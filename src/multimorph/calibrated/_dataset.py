@@ -134,7 +134,8 @@ class ReferenceSet:
         return out
 
 
-def _set_from_columns(name: str, cols: Mapping[str, np.ndarray], spec: Any) -> ReferenceSet:
+def _set_from_columns(name: str, cols: Mapping[str, np.ndarray], spec: Any,
+                      spec_hash: str | None = None) -> ReferenceSet:
     table = spec.design_table()
     design = np.asarray(cols["design"], dtype=np.int64)
     m = int(np.max(cols["n_points"])) if len(design) and "n_points" in cols else 1
@@ -151,7 +152,8 @@ def _set_from_columns(name: str, cols: Mapping[str, np.ndarray], spec: Any) -> R
     scalars["critical_kind"] = np.asarray(cols.get("critical_kind", [""] * len(design))
                                           ).astype(str)
     return ReferenceSet(
-        name=name, kind=REFERENCE_SETS[name], spec_hash=spec.spec_hash,
+        name=name, kind=REFERENCE_SETS[name],
+        spec_hash=spec.spec_hash if spec_hash is None else spec_hash,
         parameters=tuple(table.names), design=design, values=table.values[design],
         status=np.asarray(cols["status"]).astype(str), error=np.asarray(cols["error"]).astype(str),
         n_points=np.asarray(cols.get("n_points", np.zeros(len(design))), dtype=np.int64),
@@ -179,6 +181,7 @@ def write_reference(sets: Mapping[str, ReferenceSet], *, archive: Path = ARCHIVE
         n_used = [int(k) for k in ref.n_points]
         m = max([*n_used, 1])
         arrays[f"{name}/design"] = ref.design
+        arrays[f"{name}/spec_hash"] = np.array(ref.spec_hash)
         arrays[f"{name}/status"] = ref.status.astype(str)
         arrays[f"{name}/error"] = ref.error.astype(str)
         arrays[f"{name}/n_points"] = ref.n_points
@@ -211,7 +214,8 @@ def write_reference(sets: Mapping[str, ReferenceSet], *, archive: Path = ARCHIVE
 
 @lru_cache(maxsize=2)
 def load_reference(archive: str | None = None) -> dict[str, ReferenceSet]:
-    """The shipped reference sets (those present in the archive), by name.
+    """The shipped reference sets (those present in the archive and computed for the
+    current version of their spec), by name.
 
     Raises
     ------
@@ -235,7 +239,11 @@ def load_reference(archive: str | None = None) -> dict[str, ReferenceSet]:
             for c in CURVES:
                 cols.setdefault(f"curve_{c}", np.full((n, m), np.nan))
             cols["curve_stable"] = cols.pop("stable")
-            out[name] = _set_from_columns(name, cols, reference_spec(name))
+            spec = reference_spec(name)
+            stored = str(cols.pop("spec_hash", ""))
+            if stored != spec.spec_hash:
+                continue  # computed for another version of the spec: not these designs
+            out[name] = _set_from_columns(name, cols, spec, stored)
     return out
 
 

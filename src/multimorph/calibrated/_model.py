@@ -124,7 +124,9 @@ class CalibratedModel:
                              and c.bottom_material is not None
                              and c.bottom_material.model in _EMULATED_LAWS for c in straight])
         feats = np.full((len(cells), 4), np.nan)
-        if emulable.any() and fam in self.emulators:
+        if fam not in self.emulators:
+            emulable[:] = False
+        if emulable.any():
             ebox = self.emulator_boxes[fam]
             fam_groups = np.array([[cell_groups(c)[n] for n in ebox.names]
                                    for c, e in zip(cells, emulable, strict=True) if e])

@@ -64,8 +64,10 @@ def grid_values(t: np.ndarray, P: np.ndarray, y: np.ndarray, peak: np.ndarray,
     (t the log volume ratio, P in Pa, y the signal, peak the largest stretch, axial the
     axial stretch), and the mask of the grid points the path covers."""
     t = np.asarray(t, float)
-    order = np.concatenate([[True], np.diff(t) > 1e-12])
-    keep = order & np.isfinite(t)
+    # the points where the volume exceeds every earlier one (a path that turns back in
+    # volume, rare, keeps its monotone part)
+    prev = np.maximum.accumulate(np.where(np.isfinite(t), t, -np.inf))
+    keep = np.isfinite(t) & np.concatenate([[True], t[1:] > prev[:-1] + 1e-12])
     t = t[keep]
     tz = np.where(t > 0, t, np.inf)
     cols = {"log_p": np.log(np.maximum(np.asarray(P, float)[keep] / mu, _TINY)),

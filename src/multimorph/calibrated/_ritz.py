@@ -22,10 +22,15 @@ from multimorph.geometry import CellGeometry, TiltedCell
 
 __all__ = ["FEATURE_NAMES", "FEATURE_T", "RITZ_PMAX", "ritz_features", "ritz_paths"]
 
-#: Chamber log volume ratios t = log(V/V0) at which the Ritz features are read.
+#: Chamber log volume ratios t = log(V/V0) at which the Ritz model is read.
+TABLE_T = (0.05, 0.1, 0.2, 0.3, 0.5, 0.75, 1.0)
+#: The Ritz features the calibrated model uses (a subset of :func:`path_table` columns).
 FEATURE_T = (0.25, 0.75)
 FEATURE_NAMES = ("log_p_ritz_t025", "log_p_ritz_t075", "signal_per_t_ritz_t025",
                  "mid_strain_per_t_ritz_t025")
+#: Columns of :func:`path_table`: log(P/μ), signal/t and mid-height strain/t at each t.
+TABLE_NAMES = tuple(f"{q}_t{t:g}" for q in ("log_p", "signal_per_t", "mid_strain_per_t")
+                    for t in TABLE_T)
 #: Largest pressure of the Ritz traces, in units of the wall μ (every sampled design of the
 #: calibrated box passes t = 1 below it).
 RITZ_PMAX = 4.0
@@ -89,6 +94,48 @@ def path_features(path: Any, cell: CellGeometry | TiltedCell) -> np.ndarray:
                                                 * c.height) - 1.0
         out[3] = float(np.interp(FEATURE_T[0], t, mid[keep])) / FEATURE_T[0]
     return out
+
+
+def path_row(path: Any, cell: CellGeometry | TiltedCell) -> np.ndarray:
+    """:data:`TABLE_NAMES` of one Ritz path (NaN where it does not reach that volume)."""
+    c = _straight(cell)
+    v0 = c.wc * c.hc * c.dc
+    t = np.log(np.asarray(path.volume) / v0)
+    P = np.asarray(path.pressure) / c.mu
+    y = signal_of(path, cell)
+    mid = np.asarray(path.axial_stretch) * (1.0 + np.asarray(path.curvature) * 0.5
+                                            * c.height) - 1.0
+    prev = np.maximum.accumulate(t)
+    keep = np.concatenate([[True], t[1:] > prev[:-1]])
+    t, P, y, mid = t[keep], P[keep], y[keep], mid[keep]
+    tt = np.asarray(TABLE_T)
+    inside = tt <= t[-1]
+    out = np.full(3 * len(tt), np.nan)
+    k = len(tt)
+    out[:k][inside] = np.log(np.maximum(np.interp(tt[inside], t, P), 1e-12))
+    out[k:2 * k][inside] = np.interp(tt[inside], t, y) / tt[inside]
+    out[2 * k:][inside] = np.interp(tt[inside], t, mid) / tt[inside]
+    return out
+
+
+def path_table(cells: Sequence[CellGeometry | TiltedCell]) -> np.ndarray:
+    """:data:`TABLE_NAMES` of every cell's Ritz path, shape (n, 21)."""
+    paths = ritz_paths(cells)
+    return np.array([path_row(p, c) for p, c in zip(paths, cells, strict=True)])
+
+
+def features_from_table(table: np.ndarray) -> np.ndarray:
+    """:data:`FEATURE_NAMES` (n, 4) read from :func:`path_table` rows (interpolated in t)."""
+    table = np.atleast_2d(table)
+    tt = np.asarray(TABLE_T)
+    k = len(tt)
+
+    def at(block: np.ndarray, t: float) -> np.ndarray:
+        return np.array([np.interp(t, tt, row) for row in block])
+
+    return np.column_stack([at(table[:, :k], FEATURE_T[0]), at(table[:, :k], FEATURE_T[1]),
+                            at(table[:, k:2 * k], FEATURE_T[0]),
+                            at(table[:, 2 * k:], FEATURE_T[0])])
 
 
 def ritz_features(cells: Sequence[CellGeometry | TiltedCell]) -> np.ndarray:

@@ -18,7 +18,7 @@ import numpy as np
 
 from multimorph.calibrated._box import GROUP_NAMES, Box, cell_groups
 from multimorph.calibrated._dataset import DATA_DIR, reference_spec
-from multimorph.calibrated._ritz import FEATURE_NAMES, ritz_features
+from multimorph.calibrated._ritz import TABLE_NAMES, path_table
 
 __all__ = ["RITZ_TABLE", "TABLE_KINDS", "build_ritz_table", "load_ritz_table"]
 
@@ -30,20 +30,21 @@ SEED = 7
 
 
 def load_ritz_table(path: Path = RITZ_TABLE) -> dict[str, dict[str, np.ndarray]]:
-    """``{kind: {"groups": (n, k), "features": (n, f)}}`` of the saved table ({} if none)."""
+    """``{kind: {"groups": (n, k), "table": (n, 21)}}`` of the saved table ({} if none):
+    the groups and the Ritz path's :data:`~._ritz.TABLE_NAMES` of every design."""
     if not path.exists():
         return {}
     out: dict[str, dict[str, np.ndarray]] = {}
     with np.load(path, allow_pickle=False) as z:
         for kind in TABLE_KINDS:
             if f"{kind}/groups" in z.files:
-                out[kind] = {"groups": z[f"{kind}/groups"], "features": z[f"{kind}/features"]}
+                out[kind] = {"groups": z[f"{kind}/groups"], "table": z[f"{kind}/table"]}
     return out
 
 
 def _save(table: dict[str, dict[str, np.ndarray]], path: Path) -> None:
     arrays = {f"{k}/{n}": v for k, d in table.items() for n, v in d.items()}
-    arrays["feature_names"] = np.array(FEATURE_NAMES)
+    arrays["table_names"] = np.array(TABLE_NAMES)
     tmp = path.with_name(f".{path.stem}.tmp.npz")
     np.savez_compressed(tmp, **arrays)
     os.replace(tmp, path)
@@ -62,12 +63,12 @@ def build_ritz_table(samples: int = 2048, chunk: int = 256, path: Path = RITZ_TA
         t0 = time.monotonic()
         for start in range(have, len(cells), chunk):
             part = cells[start:start + chunk]
-            feats = ritz_features(part)
+            rows = path_table(part)
             groups = np.array([box.values_of(cell_groups(c)) for c in part])
             old = table.get(kind, {"groups": np.zeros((0, len(GROUP_NAMES[kind]))),
-                                   "features": np.zeros((0, len(FEATURE_NAMES)))})
+                                   "table": np.zeros((0, len(TABLE_NAMES)))})
             table[kind] = {"groups": np.vstack([old["groups"], groups]),
-                           "features": np.vstack([old["features"], feats])}
+                           "table": np.vstack([old["table"], rows])}
             _save(table, path)
             print(f"[ritz table] {kind}: {start + len(part)}/{len(cells)} designs, "
                   f"{(time.monotonic() - t0) / 60:.1f} min", file=sys.stderr, flush=True)
