@@ -93,8 +93,10 @@ def fe_signal(kind: str, path: dict[str, np.ndarray], n_cells: int) -> np.ndarra
 
 
 def fe_training_data(kind: str, sets: dict[str, ReferenceSet] | None = None,
-                     set_names: tuple[str, ...] | None = None) -> TrainingData:
-    """Grid data of the finished, successful designs of ``kind``'s sets."""
+                     set_names: tuple[str, ...] | None = None, *,
+                     ritz: bool = True) -> TrainingData:
+    """Grid data of the finished, successful designs of ``kind``'s sets (with their exact
+    Ritz features unless ``ritz=False``: NaN then)."""
     sets = sets if sets is not None else load_reference()
     names = set_names or KIND_SETS[kind]
     box_names = GROUP_NAMES[kind]
@@ -124,8 +126,11 @@ def fe_training_data(kind: str, sets: dict[str, ReferenceSet] | None = None,
             rows["cell"].append(cell)
             rows["path"].append(path)
     n = len(rows["set"])
-    _log(f"{kind}: {n} FE designs; computing their Ritz features")
-    feats = ritz_features(rows["cell"]) if n else np.zeros((0, 4))
+    if ritz and n:
+        _log(f"{kind}: {n} FE designs; computing their Ritz features")
+        feats = ritz_features(rows["cell"])
+    else:
+        feats = np.full((n, 4), np.nan)
     return TrainingData(
         kind=kind, set_name=np.array(rows["set"]), design=np.array(rows["design"]),
         groups=np.array(rows["groups"], float).reshape(n, len(box_names)), features=feats,

@@ -42,7 +42,7 @@ def evaluate(kind: str, set_name: str) -> dict[str, Any]:
     from multimorph.calibrated import CalibrationWarning, load_model
     from multimorph.models import batch_model
 
-    data = fe_training_data(kind, set_names=(set_name,))
+    data = fe_training_data(kind, set_names=(set_name,), ritz=False)
     rows = np.flatnonzero(data.holdout)
     model = load_model()
     ritz = batch_model("ritz")
