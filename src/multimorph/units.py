@@ -56,6 +56,10 @@ def to_si(value: Any, unit: str, *, field: str = "value") -> float:
         return float(value.strip())
     except ValueError:
         pass
+    first = value.strip().split(" ")[0].lstrip("+-").lower()
+    if not any(ch.isdigit() for ch in value) and first not in ("nan", "inf", "infinity"):
+        raise SpecError(f"{field}: {value!r} has no number (a quantity is a number and a unit, "
+                        "e.g. \"2 mm\" or \"30 kPa\")")
     import pint
 
     ureg = registry()
@@ -74,7 +78,8 @@ def to_si(value: Any, unit: str, *, field: str = "value") -> float:
         ) from None
 
 
-def to_angle(value: Any, *, field: str = "angle") -> float:
+def to_angle(value: Any, *, field: str = "angle",
+             hint: str = 'give an angle with its unit, e.g. "90 deg"') -> float:
     """Convert an angle *with its unit* (``"30 deg"``, ``"0.5 rad"``, ``"0.25 turn"``) to rad.
 
     Bare numbers are refused for angles, whether written as numbers (``90``) or as strings
@@ -87,13 +92,14 @@ def to_angle(value: Any, *, field: str = "angle") -> float:
         The angle with its unit.
     field : str
         Name used in error messages.
+    hint : str
+        What the message asks for when the unit is missing.
 
     Examples
     --------
     >>> round(to_angle("90 deg"), 6)
     1.570796
     """
-    hint = "give the angle with its unit, e.g. \"90 deg\""
     if not isinstance(value, str):
         raise SpecError(f"{field}: {hint} (got {value!r})")
     import pint

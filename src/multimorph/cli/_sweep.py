@@ -69,7 +69,7 @@ def sweep(
                 tasks.append(bar.add_task("sweep", total=None))
             bar.update(tasks[0], completed=done, total=total)
 
-        with claim_output(folder):
+        with claim_output(folder, in_place=True):
             try:
                 summary = run_sweep(spec, folder, scheduler=scheduler, workers=workers,
                                     batch_size=batch_size, retries=retries,

@@ -229,7 +229,7 @@ def _stage(i: int, raw: Any) -> Stage:
         if "angle" not in raw:
             raise SpecError(f"{where}.angle: missing (wanted {kind} angle, e.g. \"90 deg\")")
         v = raw["angle"]
-        mag = to_angle(v, field=f"{where}.angle")
+        mag = to_angle(v, field=f"{where}.angle", hint='give the unit, e.g. "90 deg"')
         if not math.isfinite(mag) or mag == 0:
             raise SpecError(f"{where}.angle: must be a non-zero angle, got {v!r}")
     has_p, has_b = "pressure" in raw, "band" in raw

@@ -150,18 +150,17 @@ def _length(v: Any, field_: str, *, allow_zero: bool = False) -> float:
     return x
 
 
-def _count(v: Any, field_: str, limit: int, cell: CellGeometry) -> int:
-    """A positive integer count (cells in series, copies, strips) of at most ``limit``."""
-    if isinstance(v, bool) or not isinstance(v, int):
-        raise SpecError(f"{field_}: expected a whole number, got {v!r}")
-    if v < 1:
-        raise SpecError(f"{field_}: must be at least 1, got {v}")
+def _count(v: Any, field_: str, attr: str, limit: int, cell: CellGeometry) -> int:
+    """A positive integer count (cells in series, copies, strips) of at most ``limit``;
+    ``attr`` is the :class:`Module` field it sets."""
+    if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+        raise SpecError(f"{field_}: {attr} must be a positive integer, got {v!r}")
     if v > limit:
         # each cell (and copy) is drawn with a few points in every shape and animation frame
-        raise SpecError(
-            f"{field_}: {v} is more than {limit}; {v} cells of {cell.length * 1e3:.3g} mm make "
-            f"a {v * cell.length:.3g} m module and every shape would hold "
-            f"{format_bytes(4.0 * 24 * v)} of points")
+        what = (f"{v} cells of {cell.length * 1e3:.3g} mm make a {v * cell.length:.3g} m "
+                "module, and" if attr == "n_cells" else f"with {v} copies")
+        raise SpecError(f"{field_}: {v} is more than {limit}; {what} every shape would hold "
+                        f"{format_bytes(4.0 * 24 * v)} of points")
     return v
 
 
@@ -263,14 +262,14 @@ def device_from_spec(spec: Mapping[str, Any]) -> Device:
             start = _length(m["start"], f"{where}.start", allow_zero=True)
         else:
             start = cursor.get(branch, 0.0)
-        counts = {key: _count(m.get(key, default), f"{where}.{key}", limit, cell)
-                  for key, default, limit in (("cells", 1, MAX_CELLS_PER_MODULE),
-                                              ("count", 1, MAX_COPIES),
-                                              ("strips", 3, MAX_COPIES))}
+        counts = {attr: _count(m.get(key, default), f"{where}.{key}", attr, limit, cell)
+                  for key, attr, default, limit in (
+                      ("cells", "n_cells", 1, MAX_CELLS_PER_MODULE),
+                      ("count", "count", 1, MAX_COPIES),
+                      ("strips", "strips", 3, MAX_COPIES))}
         kw: dict[str, Any] = dict(
             name=name, kind=str(m["kind"]), cell=cell, branch=branch,
-            attach_to=m.get("attach_to"), start=start,
-            n_cells=counts["cells"], count=counts["count"], strips=counts["strips"],
+            attach_to=m.get("attach_to"), start=start, **counts,
         )
         if "radius" in m:
             kw["radius"] = _length(m["radius"], f"{where}.radius", allow_zero=True)

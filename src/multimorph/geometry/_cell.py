@@ -212,7 +212,7 @@ class CellGeometry:
                 raise SpecError(f"{field}.{key}: missing (a length such as \"2 mm\")")
             kw[key] = to_si(table[key], "m", field=f"{field}.{key}")
             if not (math.isfinite(kw[key]) and kw[key] > 0):
-                raise SpecError(f"{field}.{key}: must be a positive, finite length, got "
+                raise SpecError(f"{field}.{key}: must be a positive length, got "
                                 f"{table[key]!r}")
             if kw[key] > MAX_CELL_SIZE:
                 bare = not isinstance(table[key], str) or _is_bare_number(table[key])

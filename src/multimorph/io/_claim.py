@@ -54,7 +54,7 @@ def _probe_writable(folder: Path) -> bool:
 
 
 def check_output_dir(path: str | os.PathLike[str], *, option: str = "--out",
-                     files: Iterable[str] = ()) -> Path:
+                     files: Iterable[str] = (), in_place: bool = False) -> Path:
     """Check, before any work, that ``path`` can become (or already is) an output folder.
 
     Parameters
@@ -65,6 +65,9 @@ def check_output_dir(path: str | os.PathLike[str], *, option: str = "--out",
         Name used in messages (the command-line option, e.g. ``"--out"``).
     files : iterable of str
         Names the command will write into the folder; none may be an existing folder.
+    in_place : bool
+        The command writes inside the folder only (a sweep), not first next to it (the
+        atomic output folders of the other commands need its parent writable too).
 
     Returns
     -------
@@ -86,7 +89,7 @@ def check_output_dir(path: str | os.PathLike[str], *, option: str = "--out",
         if not _probe_writable(p):
             raise SpecError(f"{option}: {p} is not writable")
         parent = p.absolute().parent
-        if not _probe_writable(parent):
+        if not in_place and not _probe_writable(parent):
             raise SpecError(f"{option}: {parent} is not writable (results are written next "
                             f"to {p.name} first, then moved in)")
         return p
@@ -122,7 +125,7 @@ def _lock_file(path: Path) -> Path:
 
 @contextlib.contextmanager
 def claim_output(path: str | os.PathLike[str], *, option: str = "--out",
-                 files: Iterable[str] = ()) -> Iterator[Path]:
+                 files: Iterable[str] = (), in_place: bool = False) -> Iterator[Path]:
     """Check ``path`` (:func:`check_output_dir`) and hold it for the duration of the block.
 
     Raises
@@ -139,7 +142,7 @@ def claim_output(path: str | os.PathLike[str], *, option: str = "--out",
     >>> with claim_output(out):
     ...     pass
     """
-    p = check_output_dir(path, option=option, files=files)
+    p = check_output_dir(path, option=option, files=files, in_place=in_place)
     lock = _lock_file(p)
     while True:
         fh = open(lock, "a+")

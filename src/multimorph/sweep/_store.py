@@ -240,7 +240,7 @@ class SweepStore:
         """
         from multimorph.io import check_output_dir
 
-        check_output_dir(self.path)
+        check_output_dir(self.path, in_place=True)
         if not self.path.is_dir():
             return
         man = self.path / "sweep.json"
