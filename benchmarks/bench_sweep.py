@@ -84,7 +84,8 @@ def main() -> None:
     outputs = ", ".join(f'"{o}"' for o in args.outputs.split(","))
     text = SPEC.format(backend=args.backend, outputs=outputs, pmax=args.pmax, n=args.designs)
     spec = parse_sweep_spec(tomllib.loads(text))
-    backend = get_backend(spec.backend)
+    plugins = (args.backend,) if ":" in args.backend else ()  # named here, on purpose
+    backend = get_backend(spec.backend, plugins=plugins)
     bs = args.batch_size or backend.batch_size
     modes = args.modes.split(",")
     root = args.keep or Path(tempfile.mkdtemp(prefix="bench-sweep-"))
@@ -124,7 +125,7 @@ def main() -> None:
         shutil.rmtree(out_dir, ignore_errors=True)
         t = time.perf_counter()
         s = run_sweep(spec, out_dir, scheduler=mode, workers=args.workers, batch_size=bs,
-                      progress=lambda d, n, m=mode, t0=t: print(
+                      allow_plugins=plugins, progress=lambda d, n, m=mode, t0=t: print(
                           f"  {m}: {d}/{n} designs, {time.perf_counter() - t0:.1f} s",
                           file=sys.stderr, flush=True))
         el = time.perf_counter() - t
@@ -134,7 +135,7 @@ def main() -> None:
         if mode == "threads" and "resume" in modes:
             t = time.perf_counter()
             r = run_sweep(spec, out_dir, scheduler="threads", workers=args.workers,
-                          batch_size=bs)
+                          batch_size=bs, allow_plugins=plugins)
             rows.append(("resume of finished sweep", time.perf_counter() - t, r.n_ok,
                          r.n_failed))
 

@@ -149,3 +149,35 @@ def test_fit_force_file_with_specimen_options(app: typer.Typer, runner: CliRunne
                             "2 mm", "--out", str(tmp_path / "o")])
     assert r.exit_code == 0, r.output
     assert json.loads(r.stdout)["params"]["mu"] == pytest.approx(40e3, rel=1e-6)
+
+
+def test_negative_stress_and_repeated_stretch_are_warned_naming_the_lines(
+        app: typer.Typer, runner: CliRunner, tmp_path: Path) -> None:
+    # issue 20: a negative stress was dropped by the fit without a word; the shipped
+    # Ecoflex 00-50 file has one (a load-cell offset) at line 19
+    out = tmp_path / "fit"
+    r = runner.invoke(app, ["material", "fit", str(MARECHAL / "ecoflex_00-50.csv"),
+                            "--range", "4", "--out", str(out), "--json"])
+    assert r.exit_code == 0, r.output
+    assert "line 19: negative stress in tension" in r.stderr
+    assert any("line 19" in w for w in json.loads(r.stdout)["warnings"])
+    csv = tmp_path / "pull.csv"
+    csv.write_text("stretch,stress (kPa)\n1.1,10\n1.2,19\n1.2,21\n1.5,40\n2.0,62\n2.5,80\n")
+    r = runner.invoke(app, ["material", "fit", str(csv), "--out", str(tmp_path / "g")])
+    assert r.exit_code == 0, r.output
+    assert "lines 3 and 4 (stretch 1.2): one stretch with two different stresses" in r.stderr
+
+
+def test_duplicated_rows_are_refused_not_fitted_with_false_precision(
+        app: typer.Typer, runner: CliRunner, tmp_path: Path) -> None:
+    # issue 20: every row given twice shrank the reported ± on μ (11.9 -> 8.2 kPa) as if
+    # the data were twice as many independent measurements
+    rows = (MARECHAL / "dragon_skin_30.csv").read_text().splitlines()
+    head = next(i for i, ln in enumerate(rows) if ln.startswith("Time (s)"))
+    doubled = rows[:head + 1] + [r for row in rows[head + 1:] for r in (row, row)]
+    f = tmp_path / "ds30.csv"
+    f.write_text("\n".join(doubled) + "\n")
+    r = runner.invoke(app, ["material", "fit", str(f), "--out", str(tmp_path / "o")])
+    assert r.exit_code == 2
+    assert f"ds30.csv, line {head + 3}: repeats line {head + 2} exactly" in r.stderr
+    assert not (tmp_path / "o").exists()

@@ -53,3 +53,35 @@ def test_malformed_device_exits_nonzero_and_writes_nothing(app, tmp_path, edit, 
     assert message in r.output
     assert not out.exists()
     assert not list(tmp_path.glob(".out.tmp-*"))
+
+
+def test_spec_without_pmax_needs_the_option(app, tmp_path):
+    # issue 20: without device.pmax the command used a silent 60 kPa although its help says
+    # the default is the spec's pmax; now it refuses, naming both ways to give it
+    spec = tmp_path / "dev.toml"
+    spec.write_text(SPEC.replace('pmax = "60 kPa"\n', ""))
+    out = tmp_path / "out"
+    r = CliRunner().invoke(app, ["simulate", str(spec), "--out", str(out), "--frames", "0"])
+    assert r.exit_code == 2
+    assert "device.pmax: missing" in r.stderr and "--pmax" in r.stderr
+    assert not out.exists()
+    r = CliRunner().invoke(app, ["simulate", str(spec), "--out", str(out), "--frames", "0",
+                                 "--pmax", "40 kPa", "--json"])
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.stdout)["pmax"] == pytest.approx(40e3)
+
+
+@pytest.mark.parametrize("snapshots", ["abc", "-5 kPa", "20 kPa,100 kPa", "20 mm"])
+def test_bad_snapshots_are_refused_before_the_run(app, tmp_path, monkeypatch, snapshots):
+    from multimorph.device import _simulate as sim
+
+    def never(*args, **kwargs):
+        raise AssertionError("the model ran before --snapshots was checked")
+
+    monkeypatch.setattr(sim, "default_cell_model", never)
+    spec = tmp_path / "dev.toml"
+    spec.write_text(SPEC)
+    r = CliRunner().invoke(app, ["simulate", str(spec), "--out", str(tmp_path / "o"),
+                                 "--snapshots", snapshots])
+    assert r.exit_code == 2
+    assert "--snapshots" in r.stderr

@@ -98,10 +98,45 @@ def test_max_slope_and_knee_on_a_sigmoid(pc, width):
     assert {"critical_pressure", "hardening_pressure", "failure_pressure"} <= set(d)
 
 
-def test_no_hardening_when_the_curve_keeps_steepening():
+def test_no_activation_when_the_curve_keeps_steepening():
+    # issue 20: the slope is largest at the last point traced, so the inflection lies beyond
+    # the range: Pc is "not reached" (None), not the highest pressure traced (the old
+    # behaviour reported Pc = 1.0 here, the end of the range)
     P = np.linspace(0, 1, 50)
     c = characteristic_pressures(_path(P, P**3))
-    assert c.critical == pytest.approx(1.0, abs=0.03) and c.hardening is None
+    assert c.critical is None and c.critical_kind is None and c.hardening is None
+    assert c.curvature_at["critical"] is None
+
+
+@pytest.mark.parametrize("stop", [-3.0, -0.5, 0.0, 0.1])
+def test_a_sigmoid_cut_before_its_inflection_has_no_pc(stop):
+    # κ = tanh((P − pc)/w) + 1 traced only to pc + stop·w: dκ/dP still rises (or has fallen
+    # by less than SLOPE_DROP: sech²(0.1) = 0.990) where the path ends
+    pc, width = 40e3, 8e3
+    P = np.linspace(0.0, pc + stop * width, 300)
+    c = characteristic_pressures(_path(P, np.tanh((P - pc) / width) + 1.0))
+    assert c.critical is None and c.hardening is None
+
+
+@pytest.mark.parametrize("stop", [0.5, 1.0, 6.0])
+def test_a_sigmoid_cut_after_its_inflection_has_it(stop):
+    # sech²(0.5) = 0.79: the slope has fallen by 21 % from its maximum, an interior one
+    pc, width = 40e3, 8e3
+    P = np.linspace(0.0, pc + stop * width, 300)
+    c = characteristic_pressures(_path(P, np.tanh((P - pc) / width) + 1.0))
+    assert c.critical_kind == "max_slope"
+    assert c.critical == pytest.approx(pc, abs=0.01 * width)
+
+
+def test_pc_is_never_the_last_pressure_traced():
+    # whatever the curve, a max-slope Pc lies strictly inside the traced range
+    rng = np.random.default_rng(0)
+    for _ in range(50):
+        P = np.sort(rng.uniform(0, 1, 30))
+        k = np.cumsum(rng.uniform(0, 1, 30))
+        c = characteristic_pressures(_path(P, k))
+        if c.critical_kind == "max_slope":
+            assert P[0] < c.critical < P[-1]
 
 
 def test_failure_pressure_where_peak_stretch_reaches_break():

@@ -163,6 +163,26 @@ def test_cli_human_output(tmp_path):
     assert "Pc" in res.output and "kPa" in res.output
 
 
+def test_pc_not_reached_below_it_and_found_above_it(reference, tmp_path):
+    # issue 20: traced only up to a pressure below the real Pc, the reduced model reports Pc
+    # "not reached" (it used to report the highest pressure traced); traced beyond it, the
+    # same Pc as the full path (within the discretisation of a differently stepped path)
+    pc = reference.characteristic.critical
+    for frac in (0.25, 0.5, 0.9):
+        r = solve_cell(ref_cell(), frac * pc)
+        assert r.characteristic.critical is None and r.characteristic.hardening is None
+    r = solve_cell(ref_cell(), 1.3 * pc)
+    assert r.characteristic.critical == pytest.approx(pc, rel=0.02)
+    spec = tmp_path / "c.toml"
+    spec.write_text(SPEC)
+    res = _run(["cell", str(spec), "--pmax", "60 kPa", "--json", "--out", str(tmp_path / "o")])
+    assert res.exit_code == 0, res.output
+    data = json.loads(res.stdout)
+    assert data["critical_pressure"] is None and data["critical_kind"] is None
+    res = _run(["cell", str(spec), "--pmax", "60 kPa", "--out", str(tmp_path / "p")])
+    assert "critical pressure Pc: not reached" in res.output
+
+
 @pytest.mark.parametrize(("bad", "message"), [
     ('side_wall = "1.5 mm"', "side_wall"),
     ('top_wall = "0.8 mm"', "top_wall"),

@@ -42,7 +42,7 @@ mu = "245 kPa"
 jm = 20
 
 [sweep]
-backend = "test_sweep_analytic:SphereBackend"
+backend = "sphere"
 outputs = ["characteristic", "curves"]
 pmax = "200 kPa"
 {extra}
@@ -205,7 +205,7 @@ def test_sigkill_half_way_then_rerun_completes_exactly_once(tmp_path: Path) -> N
     out = tmp_path / "out"
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(TESTS), os.environ.get(
         "PYTHONPATH", "")])}
-    code = ("import sys, typer\nfrom multimorph.cli import _sweep, _plot\n"
+    code = ("import sys, typer, test_sweep_analytic\nfrom multimorph.cli import _sweep, _plot\n"
             "app = typer.Typer()\n_sweep.register(app)\n_plot.register(app)\n"
             "app(sys.argv[1:])\n")
     proc = subprocess.Popen(
@@ -240,7 +240,7 @@ def test_fe_backend_without_the_fe_room_names_the_missing_piece(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setitem(sys.modules, "multimorph.fe", None)  # as if not installed
     spec = write_spec(tmp_path)
-    spec.write_text(spec.read_text().replace('"test_sweep_analytic:SphereBackend"', '"fe"'))
+    spec.write_text(spec.read_text().replace('"sphere"', '"fe"'))
     with pytest.raises(MultimorphError, match=r"needs multimorph\.fe, which is not available"
                        r".*finite-element model of issue 5"):
         run_sweep(spec, tmp_path / "out", scheduler="sync")
@@ -249,7 +249,7 @@ def test_fe_backend_without_the_fe_room_names_the_missing_piece(
 
 def test_unknown_backend_is_a_spec_error(tmp_path: Path) -> None:
     spec = write_spec(tmp_path)
-    spec.write_text(spec.read_text().replace('"test_sweep_analytic:SphereBackend"', '"cfd"'))
+    spec.write_text(spec.read_text().replace('"sphere"', '"cfd"'))
     with pytest.raises(SpecError, match="unknown backend 'cfd'; known: calibrated, fe, ritz, rom"):
         run_sweep(spec, tmp_path / "out", scheduler="sync")
 
@@ -292,7 +292,7 @@ def test_short_batches_are_padded_for_jitted_backends_and_padding_dropped(
 def test_fe_backend_one_design_per_task(tmp_path: Path) -> None:
     pytest.importorskip("felupe")
     spec = write_spec(tmp_path, num=1)  # ht/d = 0.02: 3 designs, 2 valid
-    text = spec.read_text().replace('"test_sweep_analytic:SphereBackend"', '"fe"')
+    text = spec.read_text().replace('"sphere"', '"fe"')
     text = text.replace('pmax = "200 kPa"', 'pmax = "10 kPa"').replace(
         "values = [0.1, 0.15, 0.3]", "values = [0.1, 0.3]")
     spec.write_text(text + '\n[sweep.options]\nmesh = "coarse"\n')

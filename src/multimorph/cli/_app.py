@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import sys
+from collections.abc import Sequence
+
 import typer
+from rich.markup import escape
 
 app = typer.Typer(
     name="multimorph",
@@ -14,7 +18,9 @@ app = typer.Typer(
 
 
 def _register() -> None:
-    # one line per command module; each module defines ``register(app)``
+    # one line per command module; each module defines ``register(app)``; once per process
+    if app.registered_commands:
+        return
     from multimorph.cli import _material
 
     _material.register(app)
@@ -35,7 +41,36 @@ def _register() -> None:
     from multimorph.cli import _cell; _cell.register(app)  # noqa: E702, I001
 
 
+def run(argv: Sequence[str] | None = None) -> int:
+    """Run the command line ``argv`` (default ``sys.argv[1:]``); return the exit status.
+
+    A malformed command line (unknown option, a value of the wrong type, out of range) is
+    reported on one line naming the option, like every other bad input, with exit status 2
+    (click's usage-error status).
+    """
+    from multimorph.cli._common import EXIT_ERROR, err_console
+
+    _register()
+    try:
+        code = app(args=list(sys.argv[1:] if argv is None else argv), standalone_mode=False,
+                   prog_name="multimorph")
+    except typer.TyperException as exc:  # typer's click: usage errors, bad option values
+        ctx = getattr(exc, "ctx", None)
+        if type(exc).__name__ == "NoArgsIsHelpError":
+            sys.stderr.write(exc.format_message() + "\n")
+            return EXIT_ERROR
+        message = " ".join(exc.format_message().split())
+        hint = (f" (see {ctx.command_path} --help)"
+                if ctx is not None and getattr(ctx, "command_path", "") else "")
+        err_console.print(f"[bold red]error:[/] {escape(message)}{hint}", highlight=False,
+                          soft_wrap=True)
+        return int(getattr(exc, "exit_code", EXIT_ERROR))
+    except typer.Abort:
+        err_console.print("aborted", highlight=False)
+        return 1
+    return code if isinstance(code, int) else 0
+
+
 def main() -> None:
     """Console-script entry point."""
-    _register()
-    app()
+    sys.exit(run())

@@ -7,9 +7,19 @@ from typing import Annotated, Any
 
 import typer
 
-from multimorph.cli._common import console, emit_json, handle_errors
+from multimorph.cli._common import (
+    check_tables,
+    console,
+    emit_json,
+    handle_errors,
+    in_file,
+    pressure_option,
+)
 
 __all__ = ["cell", "cell_summary", "register"]
+
+#: Files written into the output folder.
+FILES = ("response.json", "curvature.png")
 
 
 def cell_summary(response: Any) -> dict[str, Any]:
@@ -98,24 +108,27 @@ def cell(
     """
     from multimorph.errors import SpecError
     from multimorph.geometry import CellGeometry
-    from multimorph.io import atomic_output_dir, load_toml, write_json
-    from multimorph.rom import solve_cell
-    from multimorph.units import to_si
+    from multimorph.io import atomic_output_dir, claim_output, load_toml, write_json
 
     with handle_errors(as_json):
+        # everything is checked before the model runs
         table = load_toml(spec)
+        check_tables(table, ("cell",), spec)
         if "cell" not in table:
             raise SpecError(f"{spec}: missing [cell] table")
-        geometry = CellGeometry.from_spec(table["cell"])
-        p_max = geometry.mu if pmax is None else to_si(pmax, "Pa", field="--pmax")
-        if not p_max > 0:
-            raise SpecError(f"--pmax: must be a positive pressure, got {pmax!r}")
-        response = solve_cell(geometry, p_max)
-        data = cell_summary(response)
+        with in_file(spec):
+            geometry = CellGeometry.from_spec(table["cell"])
+        p_max = (geometry.mu if pmax is None
+                 else pressure_option(pmax, "--pmax", mu=geometry.mu))
         folder = out if out is not None else Path("multimorph-out") / f"cell-{spec.stem}"
-        with atomic_output_dir(folder) as tmp:
-            write_json(tmp / "response.json", data)
-            _plot(response, tmp / "curvature.png", spec.stem)
+        with claim_output(folder, files=FILES):
+            from multimorph.rom import solve_cell
+
+            response = solve_cell(geometry, p_max)
+            data = cell_summary(response)
+            with atomic_output_dir(folder) as tmp:
+                write_json(tmp / "response.json", data)
+                _plot(response, tmp / "curvature.png", spec.stem)
     if as_json:
         emit_json(data)
         return
@@ -128,7 +141,8 @@ def cell(
     console.print(f"[bold]cell[/] {spec} — μ = {mu / 1e3:.4g} kPa, d = "
                   f"{response.length * 1e3:.4g} mm, {len(response.path)} path points up to "
                   f"{p_max / 1e3:.4g} kPa")
-    console.print(f"  critical pressure Pc ({ch.critical_kind}): {kpa(ch.critical)}")
+    kind = f" ({ch.critical_kind})" if ch.critical_kind else ""
+    console.print(f"  critical pressure Pc{kind}: {kpa(ch.critical)}")
     console.print(f"  hardening pressure Ph: {kpa(ch.hardening)}")
     console.print(f"  failure pressure: {kpa(ch.failure)}")
     if ch.signal == "axial_stretch":

@@ -15,7 +15,8 @@ from rich.markup import escape
 from multimorph.errors import MultimorphError
 from multimorph.io import to_jsonable
 
-__all__ = ["EXIT_ERROR", "console", "emit_json", "err_console", "fail", "handle_errors"]
+__all__ = ["EXIT_ERROR", "check_tables", "console", "emit_json", "err_console", "fail",
+           "handle_errors", "in_file", "pressure_option", "warn"]
 
 EXIT_ERROR = 2
 
@@ -29,6 +30,58 @@ def emit_json(data: Any) -> None:
     """Print ``data`` as JSON on stdout (SI units, NaN/inf as null)."""
     sys.stdout.write(json.dumps(to_jsonable(data), indent=2) + "\n")
     sys.stdout.flush()
+
+
+def warn(message: str) -> None:
+    """Print a warning on one line of stderr (the run goes on)."""
+    message = " ".join(str(message).split())
+    err_console.print(f"[yellow]warning:[/] {escape(message)}", highlight=False, soft_wrap=True)
+
+
+def pressure_option(value: str, option: str, *, mu: float | None = None) -> float:
+    """A pressure option (``"60 kPa"``; bare numbers in Pa) in Pa: positive, finite and, with
+    ``mu``, at most :data:`multimorph.limits.MAX_PRESSURE_RATIO` μ (SpecError naming it)."""
+    import math
+
+    from multimorph.errors import SpecError
+    from multimorph.limits import check_pressure_scale
+    from multimorph.units import to_si
+
+    p = to_si(value, "Pa", field=option)
+    if not (math.isfinite(p) and p > 0):
+        raise SpecError(f"{option}: must be a positive, finite pressure, got {value!r}")
+    if mu is not None:
+        check_pressure_scale(p, mu, option)
+    return p
+
+
+@contextmanager
+def in_file(path: object) -> Iterator[None]:
+    """Prefix a :class:`~multimorph.errors.SpecError` raised while parsing a spec with the
+    spec file's name (``gripper.toml: module 'fingers'.cells: ...``)."""
+    from multimorph.errors import SpecError
+
+    try:
+        yield
+    except SpecError as exc:
+        text = str(exc)
+        if text.startswith(str(path)):
+            raise
+        try:
+            new = type(exc)(f"{path}: {text}")
+        except TypeError:
+            new = SpecError(f"{path}: {text}")
+        raise new from None
+
+
+def check_tables(table: dict[str, Any], allowed: tuple[str, ...], spec: object) -> None:
+    """Refuse top-level tables of a spec file other than ``allowed`` (SpecError naming them)."""
+    from multimorph.errors import SpecError
+
+    unknown = sorted(set(table) - set(allowed))
+    if unknown:
+        raise SpecError(f"{spec}: unknown table(s) {', '.join(f'[{k}]' for k in unknown)}; "
+                        f"expected {', '.join(f'[{k}]' for k in allowed)}")
 
 
 def fail(message: str, *, as_json: bool = False) -> None:
@@ -49,5 +102,6 @@ def handle_errors(as_json: bool = False) -> Iterator[None]:
         yield
     except MultimorphError as exc:
         fail(str(exc), as_json=as_json)
-    except (FileNotFoundError, IsADirectoryError, PermissionError) as exc:
-        fail(f"{exc.filename}: {exc.strerror}", as_json=as_json)
+    except OSError as exc:  # a file or folder the run could not read or write
+        where = f"{exc.filename}: " if exc.filename else ""
+        fail(f"{where}{exc.strerror or exc}", as_json=as_json)

@@ -149,10 +149,10 @@ def demo(
     """
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
 
-    from multimorph.io import atomic_output_dir, write_json
+    from multimorph.io import atomic_output_dir, claim_output, write_json
 
     with handle_errors(as_json):
-        with atomic_output_dir(out) as tmp, Progress(
+        with claim_output(out), atomic_output_dir(out) as tmp, Progress(
                 TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
                 console=err_console, transient=True) as progress:
             report = {"materials": _materials_section(tmp, progress)}

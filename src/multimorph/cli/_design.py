@@ -7,16 +7,23 @@ prints ``"feasible": false`` with the explanation), 2 on a malformed spec or a m
 
 from __future__ import annotations
 
+import math
+from contextlib import ExitStack
 from pathlib import Path
 from typing import Annotated, Any
 
 import typer
 
-from multimorph.cli._common import console, emit_json, err_console, handle_errors
+from multimorph.cli._common import console, emit_json, err_console, handle_errors, in_file
 
 __all__ = ["EXIT_INFEASIBLE", "design_command", "register"]
 
 EXIT_INFEASIBLE = 3
+#: Option limits: a batch of population × stages cells is traced at once, and every
+#: evaluation or sample is a traced path (~0.1 s each on one core).
+MAX_BUDGET = 10_000_000
+MAX_POPULATION = 10_000
+MAX_SAMPLES = 100_000
 
 
 def design_command(
@@ -26,12 +33,15 @@ def design_command(
         "--out", "-o", help="Output folder (default multimorph-out/design-<target name>).")
                    ] = None,
     seed: Annotated[int, typer.Option(help="Random seed (search and Monte Carlo).")] = 0,
-    budget: Annotated[int, typer.Option(min=1, help="Cell-model evaluations for the search.")
+    budget: Annotated[int, typer.Option(min=1, max=MAX_BUDGET,
+                                        help="Cell-model evaluations for the search.")
                       ] = 1200,
-    population: Annotated[int, typer.Option(min=4, help="Differential-evolution population.")
+    population: Annotated[int, typer.Option(min=4, max=MAX_POPULATION,
+                                            help="Differential-evolution population.")
                           ] = 24,
     robustness: Annotated[int, typer.Option(
-        min=0, help="Monte Carlo samples for the robustness of the best design (0: skip).")
+        min=0, max=MAX_SAMPLES,
+        help="Monte Carlo samples for the robustness of the best design (0: skip).")
                           ] = 64,
     wall_tolerance: Annotated[str, typer.Option(
         help="Fabrication tolerance on every wall, ±, e.g. '0.1 mm'.")] = "0.1 mm",
@@ -77,20 +87,24 @@ def design_command(
     from multimorph.design._verify import fe_available
     from multimorph.design._verify import verify_fe as run_fe_check
     from multimorph.errors import MultimorphError, SpecError
-    from multimorph.io import atomic_output_dir, load_toml, write_json
+    from multimorph.io import atomic_output_dir, claim_output, load_toml, write_json
     from multimorph.units import to_si
 
-    with handle_errors(as_json):
-        spec = target_from_spec(load_toml(target))
+    with handle_errors(as_json), ExitStack() as hold:
+        with in_file(target):
+            spec = target_from_spec(load_toml(target))
         tol = to_si(wall_tolerance, "m", field="--wall-tolerance")
-        if not tol >= 0:
-            raise SpecError(f"--wall-tolerance: must be non-negative, got {wall_tolerance!r}")
-        if not default_cv >= 0:
-            raise SpecError(f"--default-cv: must be non-negative, got {default_cv}")
+        if not (math.isfinite(tol) and tol >= 0):
+            raise SpecError(f"--wall-tolerance: must be a non-negative length, got "
+                            f"{wall_tolerance!r}")
+        if not (math.isfinite(default_cv) and default_cv >= 0):
+            raise SpecError(f"--default-cv: must be a non-negative number, got {default_cv}")
         if verify_fe:
             ok, why = fe_available()
             if not ok:
                 raise MultimorphError(f"--verify-fe: {why}")
+        hold.enter_context(claim_output(
+            out if out is not None else Path("multimorph-out") / f"design-{target.stem}"))
         settings = DesignSettings(budget=budget, population=population, seed=seed,
                                   robust_samples=(16 if robust else 0), wall_tolerance=tol,
                                   default_cv=default_cv, gradient=gradient, graded=graded)

@@ -163,7 +163,7 @@ def fem(
     from multimorph.fe._output import summary, write_fe_outputs
     from multimorph.geometry import CellGeometry
     from multimorph.io import atomic_output_dir, load_toml
-    from multimorph.units import to_si
+    from multimorph.units import to_angle, to_si
 
     with handle_errors(as_json):
         table = load_toml(spec)
@@ -202,7 +202,7 @@ def fem(
             raise SpecError(f"--cells: expected a positive number of cells, got {cells}")
         p_max = to_si(pmax, "Pa", field="--pmax") if pmax else None
         size = to_si(element_size, "m", field="--element-size") if element_size else None
-        beta = to_si(tilt, "rad", field="--tilt") if tilt is not None else 0.0
+        beta = to_angle(tilt, field="--tilt") if tilt is not None else 0.0
         if tilt is not None:
             from multimorph.fe._mesh import MAX_TILT
 

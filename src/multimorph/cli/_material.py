@@ -8,7 +8,7 @@ from typing import Annotated, Any
 
 import typer
 
-from multimorph.cli._common import console, emit_json, handle_errors
+from multimorph.cli._common import console, emit_json, handle_errors, warn
 
 __all__ = ["material_app", "register"]
 
@@ -158,32 +158,32 @@ def material_fit(
 
     Force-displacement files: multimorph material fit pull.csv --gauge-length "25 mm"
     """
-    from multimorph.io import atomic_output_dir, write_json
+    from multimorph.io import atomic_output_dir, claim_output, write_json
     from multimorph.materials import fit_material, read_test_data
 
     with handle_errors(as_json):
-        specimen = None
-        dims = {"gauge_length": gauge_length, "width": width, "thickness": thickness}
-        if any(v is not None for v in dims.values()):
-            from multimorph.materials import Specimen
-            from multimorph.units import to_si
-
-            base = Specimen()
-            specimen = Specimen(**{k: getattr(base, k) if v is None else
-                                   to_si(v, "m", field=f"--{k.replace('_', '-')}")
-                                   for k, v in dims.items()})
+        # everything is checked before the fit runs
+        law = _fit_options(model, order, stretch_max, case, residual, fmt)
+        specimen = _specimen({"gauge_length": gauge_length, "width": width,
+                              "thickness": thickness})
         data = read_test_data(file, case=case, format=fmt, specimen=specimen)
-        res = fit_material(model, data, order=order, residual=residual,
-                           stretch_range=stretch_max)
+        if stretch_max is not None:
+            _check_range(data, law, stretch_max, residual)
         folder = out if out is not None else Path("multimorph-out") / f"fit-{file.stem}"
-        from multimorph.viz._fitplot import plot_fit
+        for note in data.notes:
+            warn(f"{file}: {note}")
+        with claim_output(folder, files=("fit.json", "fit.png")):
+            res = fit_material(model, data, order=order, residual=residual,
+                               stretch_range=stretch_max)
+            from multimorph.viz._fitplot import plot_fit
 
-        with atomic_output_dir(folder) as tmp:
-            write_json(tmp / "fit.json", {**res.to_dict(), "data_file": str(file)})
-            plot_fit(res, data.curves, tmp / "fit.png")
+            doc = {**res.to_dict(), "data_file": str(file), "warnings": list(data.notes)}
+            with atomic_output_dir(folder) as tmp:
+                write_json(tmp / "fit.json", doc)
+                plot_fit(res, data.curves, tmp / "fit.png")
         files = [str(folder / "fit.json"), str(folder / "fit.png")]
         if as_json:
-            emit_json({**res.to_dict(), "data_file": str(file), "files": files})
+            emit_json({**doc, "files": files})
             return
         law = res.material.law
         console.print(f"[bold]{res.material.model}[/] fit to {file} "
@@ -205,6 +205,70 @@ def material_fit(
             console.print(f"  stretch at break (data) = {res.material.break_stretch:.3g}")
         console.print(f"  residual: {res.residual_definition}", highlight=False)
         console.print(f"wrote {folder}/fit.json, fit.png")
+
+
+def _fit_options(model: str, order: int | None, stretch_max: float | None, case: str | None,
+                 residual: str, fmt: str) -> Any:
+    """The law to fit; every option of ``material fit`` checked (SpecError naming it)."""
+    from multimorph.errors import SpecError
+    from multimorph.materials import get_law
+    from multimorph.materials._fit import RESIDUALS
+    from multimorph.materials._loadcases import canonical_case
+    from multimorph.materials._readers import FORMATS
+
+    try:
+        law = get_law(model, order)
+    except SpecError as exc:
+        opt = "--order" if order is not None and "order" in str(exc) else "--model"
+        raise SpecError(f"{opt}: {exc}") from None
+    if stretch_max is not None and not (math.isfinite(stretch_max) and stretch_max > 1.0):
+        raise SpecError(f"--range: the largest stretch to fit must be a number above 1, got "
+                        f"{stretch_max:g}")
+    if case is not None:
+        try:
+            canonical_case(case)
+        except SpecError as exc:
+            raise SpecError(f"--case: {exc}") from None
+    if residual not in RESIDUALS:
+        raise SpecError(f"--residual: expected {' or '.join(RESIDUALS)}, got {residual!r}")
+    if fmt not in FORMATS:
+        raise SpecError(f"--format: expected one of {', '.join(FORMATS)}, got {fmt!r}")
+    return law
+
+
+def _specimen(dims: dict[str, str | None]) -> Any:
+    """Specimen dimensions from the options (None when none is given)."""
+    if all(v is None for v in dims.values()):
+        return None
+    from multimorph.errors import SpecError
+    from multimorph.materials import Specimen
+    from multimorph.units import to_si
+
+    base = Specimen()
+    kw = {}
+    for key, value in dims.items():
+        opt = f"--{key.replace('_', '-')}"
+        x = getattr(base, key) if value is None else to_si(value, "m", field=opt)
+        if not (math.isfinite(x) and x > 0):
+            raise SpecError(f"{opt}: must be a positive length, got {value!r}")
+        kw[key] = x
+    return Specimen(**kw)
+
+
+def _check_range(data: Any, law: Any, stretch_max: float, residual: str) -> None:
+    """Refuse a --range that leaves fewer usable points than the law has parameters."""
+    from multimorph.errors import SpecError
+
+    n = 0
+    for c in data.curves:
+        keep = (c.stretch <= stretch_max) & (c.stretch != 1.0)
+        if residual == "relative":
+            keep &= c.stress > 0
+        n += int(keep.sum())
+    if n <= len(law.param_names):
+        raise SpecError(f"--range: only {n} usable data point(s) with stretch <= "
+                        f"{stretch_max:g}; {law.name} has {len(law.param_names)} parameters "
+                        "and needs more points")
 
 
 @material_app.command("rebuild-library")

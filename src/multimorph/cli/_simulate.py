@@ -9,18 +9,65 @@ from typing import Annotated
 import numpy as np
 import typer
 
-from multimorph.cli._common import console, emit_json, handle_errors
+from multimorph.cli._common import console, emit_json, handle_errors, in_file, pressure_option
 
 __all__ = ["register", "simulate"]
 
+#: Files written into the output folder (and ``morph.gif`` with ``--frames`` > 0).
+FILES = ("summary.json", "curves.csv", "sequence.png", "shapes.png")
+#: Most GIF frames (each is a full figure held in memory while the GIF is written).
+MAX_FRAMES = 1000
 
-def _snapshot_pressures(result: object, given: str | None) -> list[float]:
+
+def _snapshot_pressures(given: str | None, p_max: float) -> list[float]:
+    """The pressures (Pa) of the shape snapshots: ``given`` (comma-separated, each within
+    [0, p_max]) or 0, p_max/3, 2 p_max/3 and p_max."""
+    import math
+
+    from multimorph.errors import SpecError
     from multimorph.units import to_si
 
-    if given:
-        return [to_si(s.strip(), "Pa", field="--snapshots") for s in given.split(",") if s]
-    pmax = result.pmax  # type: ignore[attr-defined]
-    return [0.0, *[float(x) for x in np.linspace(pmax / 3, pmax, 3)]]
+    if not given:
+        return [0.0, *[float(x) for x in np.linspace(p_max / 3, p_max, 3)]]
+    out = []
+    for item in given.split(","):
+        if not item.strip():
+            continue
+        p = to_si(item.strip(), "Pa", field="--snapshots")
+        if not (math.isfinite(p) and 0 <= p <= p_max):
+            raise SpecError(f"--snapshots: {item.strip()!r} is outside the traced range 0 to "
+                            f"{p_max / 1e3:.4g} kPa (pmax)")
+        out.append(p)
+    if not out:
+        raise SpecError(f"--snapshots: no pressure in {given!r}")
+    return out
+
+
+def _write(result: object, folder: Path, files: list[str], pressures: list[float],
+           frames: int) -> None:
+    from multimorph.io import atomic_output_dir, write_json
+    from multimorph.viz._device_plots import (
+        module_curves_figure,
+        shapes_figure,
+        write_animation,
+    )
+
+    summary = {**result.to_dict(), "files": files}  # type: ignore[attr-defined]
+    with atomic_output_dir(folder) as tmp:
+        write_json(tmp / "summary.json", summary)
+        with open(tmp / "curves.csv", "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(["module", "pressure_pa", "bend_1_per_m", "twist_rad_per_m",
+                        "stretch", "measure"])
+            for name, s in result.strains.items():  # type: ignore[attr-defined]
+                for row in zip(s.pressure, s.bend, s.twist, s.stretch, s.measure,
+                               strict=True):
+                    w.writerow([name, *(f"{x:.8g}" for x in row)])
+        module_curves_figure(result).savefig(tmp / "sequence.png", dpi=130)
+        shapes_figure(result, pressures).savefig(tmp / "shapes.png", dpi=110)
+        if frames:
+            with console.status("writing animation…", spinner="dots"):
+                write_animation(result, tmp / "morph.gif", frames=frames)
 
 
 def simulate(
@@ -33,7 +80,8 @@ def simulate(
     snapshots: Annotated[str | None, typer.Option(
         help="Comma-separated pressures of the shape snapshots, e.g. '20 kPa,40 kPa'.")
                          ] = None,
-    frames: Annotated[int, typer.Option(min=0, help="GIF frames (0: no animation).")] = 24,
+    frames: Annotated[int, typer.Option(min=0, max=MAX_FRAMES,
+                                        help="GIF frames (0: no animation).")] = 24,
     as_json: Annotated[bool, typer.Option("--json", help="Print the JSON summary.")] = False,
 ) -> None:
     """Simulate a device: per-module curves, the sequence of modes, shapes and an animation.
@@ -41,43 +89,30 @@ def simulate(
     Example: multimorph simulate examples/gripper.toml --pmax "60 kPa" --out out/gripper
     """
     from multimorph.device import device_from_spec, simulate_device
-    from multimorph.io import atomic_output_dir, load_toml, write_json
-    from multimorph.units import to_si
-    from multimorph.viz._device_plots import (
-        module_curves_figure,
-        shapes_figure,
-        write_animation,
-    )
+    from multimorph.errors import SpecError
+    from multimorph.io import claim_output, load_toml
 
     with handle_errors(as_json):
-        device = device_from_spec(load_toml(spec))
-        p_max = to_si(pmax, "Pa", field="--pmax") if pmax else None
-        if p_max is not None and not p_max > 0:
-            from multimorph.errors import SpecError
-
-            raise SpecError(f"--pmax: must be a positive pressure, got {pmax!r}")
-        with console.status("tracing module responses…", spinner="dots"):
-            result = simulate_device(device, p_max)
-        pressures = _snapshot_pressures(result, snapshots)
+        # everything is checked before the model runs
+        table = load_toml(spec)
+        with in_file(spec):
+            device = device_from_spec(table)
+        mu = min(m.cell.mu for m in device.modules)
+        if pmax:
+            p_max = pressure_option(pmax, "--pmax", mu=mu)
+        elif isinstance(table.get("device"), dict) and "pmax" in table["device"]:
+            p_max = device.pmax
+        else:
+            raise SpecError(f"{spec}: device.pmax: missing; give the supply pressure in "
+                            "[device] (pmax = \"60 kPa\") or on the command line (--pmax)")
+        pressures = _snapshot_pressures(snapshots, p_max)
         folder = out if out is not None else Path("multimorph-out") / f"simulate-{spec.stem}"
-        summary = result.to_dict()
-        summary["files"] = ["summary.json", "curves.csv", "sequence.png", "shapes.png"] + (
-            ["morph.gif"] if frames else [])
-        with atomic_output_dir(folder) as tmp:
-            write_json(tmp / "summary.json", summary)
-            with open(tmp / "curves.csv", "w", newline="") as fh:
-                w = csv.writer(fh)
-                w.writerow(["module", "pressure_pa", "bend_1_per_m", "twist_rad_per_m",
-                            "stretch", "measure"])
-                for name, s in result.strains.items():
-                    for row in zip(s.pressure, s.bend, s.twist, s.stretch, s.measure,
-                                   strict=True):
-                        w.writerow([name, *(f"{x:.8g}" for x in row)])
-            module_curves_figure(result).savefig(tmp / "sequence.png", dpi=130)
-            shapes_figure(result, pressures).savefig(tmp / "shapes.png", dpi=110)
-            if frames:
-                with console.status("writing animation…", spinner="dots"):
-                    write_animation(result, tmp / "morph.gif", frames=frames)
+        files = list(FILES) + (["morph.gif"] if frames else [])
+        with claim_output(folder, files=files):
+            with console.status("tracing module responses…", spinner="dots"):
+                result = simulate_device(device, p_max)
+            _write(result, folder, files, pressures, frames)
+        summary = {**result.to_dict(), "files": files}
         if as_json:
             emit_json({**summary, "out": str(folder)})
             return

@@ -28,38 +28,60 @@ def sweep(
     retry_failed: Annotated[bool, typer.Option(
         "--retry-failed", help="On resume, evaluate designs that failed before again.")
                             ] = False,
+    allow_plugin: Annotated[list[str] | None, typer.Option(
+        "--allow-plugin", metavar="MODULE:CALLABLE",
+        help="Let the spec's backend be this import path (a factory of a sweep backend); "
+        "repeatable. Without it a spec can only name registered backends (rom, fe, installed "
+        "entry points): a spec file never imports code.")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print a JSON summary.")] = False,
 ) -> None:
     """Run a parameter sweep and store the results (Zarr) in a resumable folder.
 
     Example: multimorph sweep examples/sweep_ht.toml --out out/ht --workers 2
+
+    Exit status: 0 when at least one design succeeded, 1 when every evaluated design failed
+    (the results, with each error, are still written), 2 on a malformed spec or option (also
+    when every design is invalid), checked before anything is created.
     """
     from rich.progress import (
         BarColumn,
         MofNCompleteColumn,
         Progress,
+        TaskID,
         TextColumn,
         TimeElapsedColumn,
         TimeRemainingColumn,
     )
 
+    from multimorph.io import claim_output
     from multimorph.sweep import run_sweep
 
     with handle_errors(as_json):
         folder = out if out is not None else Path("multimorph-out") / spec.stem
-        with Progress(TextColumn("sweep"), BarColumn(), MofNCompleteColumn(),
-                      TextColumn("designs"), TimeElapsedColumn(), TimeRemainingColumn(),
-                      console=err_console, transient=as_json) as bar:
-            task = bar.add_task("sweep", total=None)
+        bar = Progress(TextColumn("sweep"), BarColumn(), MofNCompleteColumn(),
+                       TextColumn("designs"), TimeElapsedColumn(), TimeRemainingColumn(),
+                       console=err_console, transient=as_json)
+        tasks: list[TaskID] = []
 
-            def progress(done: int, total: int) -> None:
-                bar.update(task, completed=done, total=total)
+        def progress(done: int, total: int) -> None:
+            if not tasks:  # the bar appears once every check passed and the work starts
+                bar.start()
+                tasks.append(bar.add_task("sweep", total=None))
+            bar.update(tasks[0], completed=done, total=total)
 
-            summary = run_sweep(spec, folder, scheduler=scheduler, workers=workers,
-                                batch_size=batch_size, retries=retries, progress=progress,
-                                retry_failed=retry_failed)
+        with claim_output(folder, in_place=True):
+            try:
+                summary = run_sweep(spec, folder, scheduler=scheduler, workers=workers,
+                                    batch_size=batch_size, retries=retries,
+                                    progress=progress, retry_failed=retry_failed,
+                                    allow_plugins=tuple(allow_plugin or ()))
+            finally:
+                bar.stop()
+        failed_all = summary.n_ok == 0 and summary.n_failed > 0
         if as_json:
             emit_json(summary.to_dict())
+            if failed_all:
+                raise typer.Exit(1)
             return
         console.print(f"[bold]{summary.n_designs}[/] designs: {summary.n_ok} ok, "
                       f"{summary.n_failed} failed, {summary.n_invalid} invalid "
@@ -75,6 +97,11 @@ def sweep(
         if len(summary.failed) > 10:
             console.print(f"  … {len(summary.failed) - 10} more failed (see results.zarr)")
         console.print(f"results: {summary.results}")
+        if failed_all:
+            err_console.print(f"[bold red]error:[/] every evaluated design failed "
+                              f"({summary.n_failed}); the errors are in {summary.results}",
+                              highlight=False, soft_wrap=True)
+            raise typer.Exit(1)
 
 
 def register(app: typer.Typer) -> None:

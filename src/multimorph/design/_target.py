@@ -44,8 +44,9 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from multimorph.errors import SpecError
+from multimorph.limits import MAX_COPIES, check_pressure_scale
 from multimorph.materials import Material, material_from_spec
-from multimorph.units import to_si
+from multimorph.units import to_angle, to_si
 
 __all__ = ["GRADED_RATIO", "STAGE_KINDS", "Constraints", "Stage", "TargetSpec", "Tolerance",
            "graded_target", "target_from_spec"]
@@ -210,6 +211,8 @@ def _stage(i: int, raw: Any) -> Stage:
         raise SpecError(f"{where}: unknown key(s) {', '.join(unknown)}; expected "
                         f"{', '.join(sorted(_STAGE_KEYS))}")
     kind = raw.get("kind")
+    if kind is None:
+        raise SpecError(f"{where}.kind: missing (one of {', '.join(STAGE_KINDS)})")
     if kind not in STAGE_KINDS:
         raise SpecError(f"{where}.kind: must be one of {', '.join(STAGE_KINDS)}, got {kind!r}")
     if kind == "stretch":
@@ -226,9 +229,7 @@ def _stage(i: int, raw: Any) -> Stage:
         if "angle" not in raw:
             raise SpecError(f"{where}.angle: missing (wanted {kind} angle, e.g. \"90 deg\")")
         v = raw["angle"]
-        if isinstance(v, int | float) and not isinstance(v, bool):
-            raise SpecError(f"{where}.angle: give the unit, e.g. \"90 deg\" (got {v!r})")
-        mag = to_si(v, "rad", field=f"{where}.angle")
+        mag = to_angle(v, field=f"{where}.angle", hint='give the unit, e.g. "90 deg"')
         if not math.isfinite(mag) or mag == 0:
             raise SpecError(f"{where}.angle: must be a non-zero angle, got {v!r}")
     has_p, has_b = "pressure" in raw, "band" in raw
@@ -248,8 +249,9 @@ def _stage(i: int, raw: Any) -> Stage:
             raise SpecError(f"{where}.band: the end {band[1]!r} must exceed the start "
                             f"{band[0]!r}")
     count = raw.get("count", 1)
-    if isinstance(count, bool) or not isinstance(count, int) or count < 1:
-        raise SpecError(f"{where}.count: must be a positive integer, got {count!r}")
+    if isinstance(count, bool) or not isinstance(count, int) or not 1 <= count <= MAX_COPIES:
+        raise SpecError(f"{where}.count: must be a whole number from 1 to {MAX_COPIES}, got "
+                        f"{count!r}")
     shaft = _length(raw["shaft_radius"], f"{where}.shaft_radius") if "shaft_radius" in raw \
         else 5e-3
     if "shaft_radius" in raw and kind != "twist":
@@ -321,6 +323,14 @@ def target_from_spec(spec: Mapping[str, Any]) -> TargetSpec:
     mnames = [m.name for m in materials]
     if len(set(mnames)) != len(mnames):
         raise SpecError(f"constraints.materials: names must be unique, got {mnames}")
+    check_pressure_scale(pmax, max(m.shear_modulus for m in materials),
+                         "constraints.max_pressure")
+    for i, st in enumerate(stages):
+        if st.end_pressure > pmax:
+            key = "pressure" if st.start_pressure is None else "band[1]"
+            raise SpecError(f"stage[{i}] ({st.name}).{key}: {st.end_pressure / 1e3:.4g} kPa is "
+                            f"above the supply pressure constraints.max_pressure "
+                            f"({pmax / 1e3:.4g} kPa)")
     kw: dict[str, Any] = {"max_pressure": pmax, "materials": tuple(materials)}
     for key in ("min_wall", "max_length", "max_width", "max_height"):
         if key in con:
@@ -332,6 +342,8 @@ def target_from_spec(spec: Mapping[str, Any]) -> TargetSpec:
             kw["separation_relative"] = True
         else:
             kw["min_separation"] = to_si(v, "Pa", field="constraints.min_separation")
+            if not math.isfinite(kw["min_separation"]):
+                raise SpecError(f"constraints.min_separation: must be finite, got {v!r}")
             kw["separation_relative"] = False
     if "min_safety_factor" in con:
         v = con["min_safety_factor"]

@@ -49,7 +49,13 @@ from typing import Any
 from multimorph.device._modules import Module
 from multimorph.errors import SpecError
 from multimorph.geometry import CellGeometry
-from multimorph.units import to_si
+from multimorph.limits import (
+    MAX_CELLS_PER_MODULE,
+    MAX_COPIES,
+    check_pressure_scale,
+    format_bytes,
+)
+from multimorph.units import to_angle, to_si
 
 __all__ = ["Device", "device_from_spec"]
 
@@ -144,10 +150,36 @@ def _length(v: Any, field_: str, *, allow_zero: bool = False) -> float:
     return x
 
 
+def _count(v: Any, field_: str, attr: str, limit: int, cell: CellGeometry) -> int:
+    """A positive integer count (cells in series, copies, strips) of at most ``limit``;
+    ``attr`` is the :class:`Module` field it sets."""
+    if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+        raise SpecError(f"{field_}: {attr} must be a positive integer, got {v!r}")
+    if v > limit:
+        # each cell (and copy) is drawn with a few points in every shape and animation frame
+        what = (f"{v} cells of {cell.length * 1e3:.3g} mm make a {v * cell.length:.3g} m "
+                "module, and" if attr == "n_cells" else f"with {v} copies")
+        raise SpecError(f"{field_}: {v} is more than {limit}; {what} every shape would hold "
+                        f"{format_bytes(4.0 * 24 * v)} of points")
+    return v
+
+
 def _angle(v: Any, field_: str) -> float:
-    if isinstance(v, int | float) and not isinstance(v, bool):
-        raise SpecError(f"{field_}: give an angle with its unit, e.g. \"30 deg\" (got {v!r})")
-    return to_si(v, "rad", field=field_)
+    x = to_angle(v, field=field_)
+    if not math.isfinite(x):
+        raise SpecError(f"{field_}: must be a finite angle, got {v!r}")
+    return x
+
+
+def _named_tables(spec: Mapping[str, Any], key: str) -> dict[str, Mapping[str, Any]]:
+    """``[key.<name>]`` tables of a spec (SpecError naming the key if not tables)."""
+    tables = spec.get(key, {})
+    if not isinstance(tables, Mapping):
+        raise SpecError(f"[{key}]: expected named tables [{key}.<name>], got {tables!r}")
+    for name, table in tables.items():
+        if not isinstance(table, Mapping):
+            raise SpecError(f"{key}.{name}: expected a table, got {table!r}")
+    return dict(tables)
 
 
 def device_from_spec(spec: Mapping[str, Any]) -> Device:
@@ -167,9 +199,12 @@ def device_from_spec(spec: Mapping[str, Any]) -> Device:
     if bad:
         raise SpecError(f"[device]: unknown key(s) {', '.join(bad)}")
     pmax = to_si(dev.get("pmax", "60 kPa"), "Pa", field="device.pmax")
+    if not (math.isfinite(pmax) and pmax > 0):
+        raise SpecError(f"device.pmax: must be a positive, finite pressure, got "
+                        f"{dev.get('pmax')!r}")
 
     named_materials = {}
-    for name, table in dict(spec.get("materials", {})).items():
+    for name, table in _named_tables(spec, "materials").items():
         named_materials[name] = material_from_spec({"name": name, **dict(table)},
                                                    f"materials.{name}")
 
@@ -188,7 +223,8 @@ def device_from_spec(spec: Mapping[str, Any]) -> Device:
                 table[k] = mat(table[k], f"{where}.{k}")
         return CellGeometry.from_spec(table, field=where)
 
-    cells = {name: cell_of(t, f"cells.{name}") for name, t in dict(spec.get("cells", {})).items()}
+    cells = {name: cell_of(t, f"cells.{name}")
+             for name, t in _named_tables(spec, "cells").items()}
 
     raw_modules = spec.get("module")
     if not raw_modules:
@@ -226,11 +262,14 @@ def device_from_spec(spec: Mapping[str, Any]) -> Device:
             start = _length(m["start"], f"{where}.start", allow_zero=True)
         else:
             start = cursor.get(branch, 0.0)
+        counts = {attr: _count(m.get(key, default), f"{where}.{key}", attr, limit, cell)
+                  for key, attr, default, limit in (
+                      ("cells", "n_cells", 1, MAX_CELLS_PER_MODULE),
+                      ("count", "count", 1, MAX_COPIES),
+                      ("strips", "strips", 3, MAX_COPIES))}
         kw: dict[str, Any] = dict(
             name=name, kind=str(m["kind"]), cell=cell, branch=branch,
-            attach_to=m.get("attach_to"), start=start,
-            n_cells=m.get("cells", 1), count=m.get("count", 1),
-            strips=m.get("strips", 3),
+            attach_to=m.get("attach_to"), start=start, **counts,
         )
         if "radius" in m:
             kw["radius"] = _length(m["radius"], f"{where}.radius", allow_zero=True)
@@ -243,4 +282,5 @@ def device_from_spec(spec: Mapping[str, Any]) -> Device:
         module = Module(**kw)
         cursor[branch] = max(cursor.get(branch, 0.0), module.end)
         modules.append(module)
+    check_pressure_scale(pmax, min(mod.cell.mu for mod in modules), "device.pmax")
     return Device(tuple(modules), name=str(dev.get("name", "device")), pmax=pmax)

@@ -17,6 +17,7 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 from multimorph.errors import SpecError
+from multimorph.limits import MAX_CELL_SIZE
 from multimorph.materials._material import Material
 from multimorph.units import to_si
 
@@ -32,6 +33,14 @@ CELL_KEYS = {
     "side_wall": "ws",
     "end_wall": "df",
 }
+
+
+def _is_bare_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 def _fmt(x: float) -> str:
@@ -202,8 +211,15 @@ class CellGeometry:
             if key not in table:
                 raise SpecError(f"{field}.{key}: missing (a length such as \"2 mm\")")
             kw[key] = to_si(table[key], "m", field=f"{field}.{key}")
-            if not kw[key] > 0:
-                raise SpecError(f"{field}.{key}: must be a positive length, got {table[key]!r}")
+            if not (math.isfinite(kw[key]) and kw[key] > 0):
+                raise SpecError(f"{field}.{key}: must be a positive length, got "
+                                f"{table[key]!r}")
+            if kw[key] > MAX_CELL_SIZE:
+                bare = not isinstance(table[key], str) or _is_bare_number(table[key])
+                raise SpecError(
+                    f"{field}.{key}: {table[key]!r} is {kw[key]:.3g} m, larger than any cell "
+                    f"({MAX_CELL_SIZE:g} m)" + (f"; a bare number is in metres: did you mean "
+                                                f"\"{table[key]} mm\"?" if bare else ""))
         if "material" not in table:
             raise SpecError(f"{field}.material: missing (a library name or an inline table)")
         kw["material"] = material_from_spec(table["material"], f"{field}.material")

@@ -15,6 +15,8 @@ __all__ = ["load_toml"]
 def load_toml(path: str | os.PathLike[str]) -> dict[str, Any]:
     """Parse a TOML file; a missing or malformed file raises :class:`SpecError` naming it."""
     p = Path(path)
+    if p.is_dir():
+        raise SpecError(f"{p}: is a folder, not a spec file")
     if not p.is_file():
         raise SpecError(f"{p}: no such file")
     try:

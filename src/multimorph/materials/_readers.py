@@ -120,6 +120,9 @@ class TestData:
         Path of the file read.
     metadata : mapping
         Header ``key: value`` pairs (specimen, machine, supplier …) as strings.
+    notes : tuple of str
+        What the reader noticed but kept, naming the lines (negative stresses in tension,
+        one stretch with several stresses): the command line prints them as warnings.
     """
 
     __test__ = False  # not a pytest test class
@@ -128,8 +131,10 @@ class TestData:
     name: str = ""
     source: str | None = None
     metadata: Mapping[str, str] = field(default_factory=dict)
+    notes: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "notes", tuple(self.notes))
         curves = tuple(self.curves)
         cases = [c.case for c in curves]
         if len(set(cases)) != len(cases):
@@ -287,6 +292,57 @@ def _detect(p: Path, lines: list[str]) -> str:
     raise DataFileError(p, "no header line (only comments)")
 
 
+# --------------------------------------------------------------------------- row checks
+#: Largest plausible stretch of a tensile test (elastomers break below ~15).
+MAX_STRETCH = 100.0
+
+
+class _Rows:
+    """Data rows of one file as they are read: a repeated row is refused (it would count
+    twice and shrink the fit's error bars), and what is kept but worth a warning is noted:
+    negative stresses in tension and one stretch given several stresses."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.first: dict[tuple[str, ...], int] = {}
+        self.last: dict[str, tuple[int, float, float]] = {}
+        self.negative: list[int] = []
+        self.repeated: list[tuple[int, int, float]] = []
+
+    def add(self, lineno: int, cells: tuple[str, ...], case: str, lam: float,
+            stress: float) -> None:
+        if cells in self.first:
+            raise DataFileError(self.path, f"repeats line {self.first[cells]} exactly (a copied "
+                                           "row would count twice and shrink the fit's error "
+                                           "bars); remove it", lineno)
+        self.first[cells] = lineno
+        if lam > 1.0 and stress < 0:
+            self.negative.append(lineno)
+        prev = self.last.get(case)
+        if prev is not None and prev[1] == lam and prev[2] != stress:
+            self.repeated.append((prev[0], lineno, lam))
+        self.last[case] = (lineno, lam, stress)
+
+    def notes(self) -> tuple[str, ...]:
+        out = []
+        if self.negative:
+            out.append(f"{_lines(self.negative)}: negative stress in tension (a load-cell "
+                       "offset?); relative-residual fits leave such points out")
+        if self.repeated:
+            pairs = ", ".join(f"{a} and {b} (stretch {lam:.6g})"
+                              for a, b, lam in self.repeated[:5])
+            more = f" and {len(self.repeated) - 5} more" if len(self.repeated) > 5 else ""
+            out.append(f"lines {pairs}{more}: one stretch with two different stresses; "
+                       "both are fitted")
+        return tuple(out)
+
+
+def _lines(numbers: list[int]) -> str:
+    shown = ", ".join(str(n) for n in numbers[:10])
+    more = f" and {len(numbers) - 10} more" if len(numbers) > 10 else ""
+    return f"line{'s' if len(numbers) > 1 else ''} {shown}{more}"
+
+
 # --------------------------------------------------------------------------- Marechal
 def _float(p: Path, lineno: int, cell: str, what: str) -> float:
     s = cell.strip()
@@ -319,6 +375,7 @@ def _read_marechal(p: Path, lines: list[str], case: str | None) -> TestData:
                                "Engineering Strain;Engineering Stress (MPa)' found")
     lam: list[float] = []
     stress: list[float] = []
+    rows = _Rows(p)
     for i in range(header_at + 1, len(lines)):
         line = lines[i].strip()
         if not line or not line.strip(";"):
@@ -332,6 +389,7 @@ def _read_marechal(p: Path, lines: list[str], case: str | None) -> TestData:
         e = _float(p, i + 1, cells[3], "Engineering Strain")
         s = _float(p, i + 1, cells[4], "Engineering Stress (MPa)")
         _check_stretch(p, i + 1, 1.0 + e, lam[-1] if lam else None)
+        rows.add(i + 1, tuple(c.strip() for c in cells), "uniaxial", 1.0 + e, s * 1e6)
         lam.append(1.0 + e)
         stress.append(s * 1e6)
     if not lam:
@@ -345,12 +403,15 @@ def _read_marechal(p: Path, lines: list[str], case: str | None) -> TestData:
                 raise DataFileError(p, f"{key}: {meta[key]!r} is not a number") from None
     name = meta.get("Material", p.stem)
     curve = LoadCurve("uniaxial", lam, stress, source=str(p), break_stretch=max(lam))
-    return TestData((curve,), name=name, source=str(p), metadata=meta)
+    return TestData((curve,), name=name, source=str(p), metadata=meta, notes=rows.notes())
 
 
 def _check_stretch(p: Path, lineno: int, lam: float, prev: float | None) -> None:
     if not lam > 0:
         raise DataFileError(p, f"stretch {lam:.6g} is not positive", lineno)
+    if lam > MAX_STRETCH:
+        raise DataFileError(p, f"stretch {lam:.6g} is beyond any elastomer (more than "
+                               f"{MAX_STRETCH:g}); check the column and its unit", lineno)
     if prev is not None and lam < prev:
         raise DataFileError(p, f"stretch decreases ({prev:.6g} then {lam:.6g}); "
                                "expected a monotonic loading curve", lineno)
@@ -512,6 +573,7 @@ def _read_columns(p: Path, lines: list[str], case: str | None, specimen: Specime
             fx = _unit_factor(p, hline, names[xcol.index], xcol.unit, "dimensionless")
         fy = _unit_factor(p, hline, names[ycol.index], ycol.unit, "Pa")
     data: dict[str, tuple[list[float], list[float], list[int]]] = {}
+    seen = _Rows(p)
     for lineno, line in body[1:]:
         cells = [c.strip() for c in line.split(delim)]
         while len(cells) > len(names) and not cells[-1]:
@@ -541,6 +603,7 @@ def _read_columns(p: Path, lines: list[str], case: str | None, specimen: Specime
             nominal = y / lam if ycol.kind == "true_stress" else y
         lams, ps, rows = data.setdefault(row_case, ([], [], []))
         _check_stretch(p, lineno, lam, lams[-1] if lams else None)
+        seen.add(lineno, tuple(cells), row_case, lam, nominal)
         lams.append(lam)
         ps.append(nominal)
         rows.append(lineno)
@@ -552,7 +615,7 @@ def _read_columns(p: Path, lines: list[str], case: str | None, specimen: Specime
     if force and specimen is not None:
         meta.update({"gauge_length_m": repr(specimen.gauge_length),
                      "width_m": repr(specimen.width), "thickness_m": repr(specimen.thickness)})
-    return TestData(curves, name=p.stem, source=str(p), metadata=meta)
+    return TestData(curves, name=p.stem, source=str(p), metadata=meta, notes=seen.notes())
 
 
 def as_curves(data: Any) -> tuple[LoadCurve, ...]:

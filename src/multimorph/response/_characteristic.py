@@ -9,7 +9,12 @@ Definitions (physics-notes §6; the same for every backend):
   nothing stable is left to land on (runaway). Shallow folds on the hardening plateau
   (a 3 % pressure dip that moves κ by 0.02 % on a 3D FE cell) are not the activation.
   Otherwise Pc is the pressure of maximum dκ/dP on the loading curve (``"max_slope"``), the
-  inflection of κ(P) where the ballooning runs fastest.
+  inflection of κ(P) where the ballooning runs fastest. An inflection is *reached* only when
+  the traced curve shows it: the maximum slope lies at an interior point and the slope
+  falls after it, by at least :data:`SLOPE_DROP` of the maximum before the end of the curve.
+  A slope that is still rising (or level) where the path stops, at ``p_max`` or earlier,
+  means the activation lies beyond the traced range: Pc is ``None`` ("not reached"), never
+  the last pressure traced.
   Both are refined by a parabola through the three points around the discrete extremum.
 * **Ph, hardening pressure.** The strain-hardening knee after Pc: the pressure of the most
   negative d²κ/dP² on the loading curve above Pc (after a snap that matters: on the branch
@@ -37,8 +42,8 @@ from multimorph.errors import SpecError
 from multimorph.response._observed import observed_curves
 from multimorph.response._types import CharacteristicPressures, EquilibriumPath
 
-__all__ = ["SIGNALS", "SNAP_FRACTION", "characteristic_pressures", "critical_pressure",
-           "hardening_pressure"]
+__all__ = ["SIGNALS", "SLOPE_DROP", "SNAP_FRACTION", "characteristic_pressures",
+           "critical_pressure", "hardening_pressure"]
 
 #: Path quantities the characteristic pressures can be read on.
 SIGNALS = ("curvature", "axial_stretch", "twist_rate")
@@ -46,6 +51,11 @@ SIGNALS = ("curvature", "axial_stretch", "twist_rate")
 #: Least κ jump of a snap, as a fraction of the path's κ range, for a fold to count as the
 #: activation (and for a snap to restart the search for the hardening knee).
 SNAP_FRACTION = 0.05
+
+#: Least fall of dκ/dP after its maximum, as a fraction of the maximum, for a max-slope Pc to
+#: count as reached within the traced range (smaller falls are a slope still levelling off,
+#: or noise, at the end of the path).
+SLOPE_DROP = 0.05
 
 
 def _vertex(x: np.ndarray, y: np.ndarray, i: int) -> tuple[float, float]:
@@ -116,8 +126,18 @@ def critical_pressure(path: EquilibriumPath, loading: EquilibriumPath | None = N
         return None, None, None
     slope = np.gradient(k, P)
     j = int(np.argmax(slope))
+    if not _inflection_reached(slope, j):
+        return None, None, None
     pc, _ = _vertex(P, slope, j)
     return pc, "max_slope", float(np.interp(pc, P, k))
+
+
+def _inflection_reached(slope: np.ndarray, j: int) -> bool:
+    """Whether the maximum slope at index ``j`` is an inflection inside the traced range:
+    interior, positive, and followed by a fall of at least :data:`SLOPE_DROP` of it."""
+    if not 0 < j < len(slope) - 1 or not slope[j] > 0:
+        return False
+    return bool(np.min(slope[j:]) <= (1.0 - SLOPE_DROP) * slope[j])
 
 
 def hardening_pressure(loading: EquilibriumPath, pc: float | None,

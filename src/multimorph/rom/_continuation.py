@@ -47,7 +47,7 @@ __all__ = [
 #: Status codes of a trace.
 STATUS_TEXT = {
     0: "reached p_max",
-    1: "ran out of steps before p_max (raise n_steps or ds_max)",
+    1: "ran out of continuation steps before p_max (the path is too long to trace up to it)",
     2: "step size underflow",
     3: "the reference state is not an equilibrium or not finite",
 }

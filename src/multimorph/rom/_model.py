@@ -187,9 +187,11 @@ def solve_cell(cell: CellGeometry, p_max: float, *, options: RomOptions | None =
         why = STATUS_TEXT.get(raw.status, "")
         if raw.status == 2:
             why += f": {REASON_TEXT.get(raw.reason, '')}"
+        last = raw.p[-1] * mu / 1e3
         raise ContinuationError(
             f"cell ROM: could not trace the equilibrium path to {p_max / 1e3:.4g} kPa"
-            f"{where} ({why}; last converged P = {raw.p[-1] * mu / 1e3:.4g} kPa)")
+            f"{where} ({why}; last converged P = {last:.4g} kPa); a maximum pressure below "
+            f"{last:.4g} kPa can be traced")
     qf = raw.q
     meas = padded_measures(measures, qf, raw.p, theta)
     q = np.zeros((qf.shape[0], len(COORDINATES)))

@@ -27,9 +27,9 @@ import numpy as np
 from multimorph.errors import MultimorphError, SpecError
 from multimorph.geometry import CellGeometry, TiltedCell
 
-__all__ = ["CURVE_VARS", "EXTRA_CURVE_VARS", "FE_EXTRA_OPTIONS", "SCALAR_VARS", "SweepBackend",
-           "evaluate_designs", "get_backend", "record_from_response", "register_backend",
-           "tilted_shear"]
+__all__ = ["CURVE_VARS", "ENTRY_POINT_GROUP", "EXTRA_CURVE_VARS", "FE_EXTRA_OPTIONS", "SCALAR_VARS",
+           "SweepBackend", "evaluate_designs", "get_backend", "known_backends", "load_plugin",
+           "record_from_response", "register_backend", "tilted_shear"]
 
 #: Per-design scalar outputs (Pa or 1/m; NaN when not reached) of ``"characteristic"``.
 SCALAR_VARS = ("critical_pressure", "hardening_pressure", "failure_pressure",
@@ -63,21 +63,79 @@ def register_backend(name: str, factory: Callable[[], SweepBackend]) -> None:
     _REGISTRY[name] = factory
 
 
-def get_backend(name: str) -> SweepBackend:
-    """The backend called ``name``: ``"rom"``, ``"fe"``, a registered one, or an import path
-    ``"package.module:factory"`` (a class or function returning a backend)."""
+#: Entry-point group through which installed packages register sweep backends
+#: (``[project.entry-points."multimorph.sweep_backends"] name = "pkg.module:factory"``).
+ENTRY_POINT_GROUP = "multimorph.sweep_backends"
+
+
+def _entry_points() -> dict[str, Any]:
+    from importlib.metadata import entry_points
+
+    return {ep.name: ep for ep in entry_points(group=ENTRY_POINT_GROUP)}
+
+
+def load_plugin(path: str) -> Callable[[], SweepBackend]:
+    """Import the backend factory ``"package.module:factory"`` named on the command line.
+
+    Only for an explicit ``--allow-plugin`` (a spec file is data and never imports code).
+
+    Raises
+    ------
+    SpecError
+        Malformed path, module not importable, or the attribute is not callable.
+    """
+    mod, sep, attr = str(path).partition(":")
+    where = f"--allow-plugin {path!r}"
+    if not sep or not mod.strip() or not attr.strip():
+        raise SpecError(f"{where}: expected MODULE:CALLABLE, e.g. mypackage.sweep:MyBackend")
+    try:
+        factory = getattr(importlib.import_module(mod.strip()), attr.strip())
+    except (ImportError, AttributeError) as exc:
+        raise SpecError(f"{where}: cannot import it ({exc})") from None
+    if not callable(factory):
+        raise SpecError(f"{where}: {attr.strip()} is not a class or function "
+                        f"({type(factory).__name__})")
+    return factory  # type: ignore[no-any-return]
+
+
+def known_backends() -> list[str]:
+    """Names a spec may give as ``[sweep] backend``: built in, registered, entry points."""
+    return sorted(set(_REGISTRY) | set(_entry_points()))
+
+
+def get_backend(name: str, *, plugins: Sequence[str] = ()) -> SweepBackend:
+    """The backend called ``name``: ``"rom"``, ``"fe"``, one registered with
+    :func:`register_backend`, one installed under the entry-point group
+    :data:`ENTRY_POINT_GROUP`, or an import path ``"package.module:factory"`` *only if* it
+    is one of ``plugins`` (the command line's ``--allow-plugin``: a spec file alone never
+    makes multimorph import and run code).
+
+    Raises
+    ------
+    SpecError
+        Unknown name (the message lists the known ones), or a factory that does not make a
+        backend.
+    """
+    if not isinstance(name, str):
+        raise SpecError(f"sweep.backend: expected a backend name, got {name!r}")
     if name in _REGISTRY:
         return _REGISTRY[name]()
-    if ":" in name:
-        mod, _, attr = name.partition(":")
-        try:
-            factory = getattr(importlib.import_module(mod), attr)
-        except (ImportError, AttributeError) as exc:
-            raise SpecError(f"sweep.backend: cannot import {name!r} ({exc})") from None
-        return factory()
-    known = ", ".join(sorted(_REGISTRY))
-    raise SpecError(f"sweep.backend: unknown backend {name!r}; known: {known}, or "
-                    "\"module:factory\"")
+    eps = _entry_points()
+    if name in eps:
+        factory = eps[name].load()
+    elif name in plugins:
+        factory = load_plugin(name)
+    else:
+        why = (" (a MODULE:CALLABLE backend is imported only when the command line allows "
+               "it with --allow-plugin MODULE:CALLABLE; a spec file cannot run code)"
+               if ":" in name else "")
+        raise SpecError(f"sweep.backend: unknown backend {name!r}; known: "
+                        f"{', '.join(known_backends())}{why}")
+    backend = factory()
+    if not isinstance(backend, SweepBackend):
+        raise SpecError(f"sweep.backend {name!r}: {factory!r} did not return a sweep backend "
+                        "(needs name, batch_size and evaluate_batch)")
+    return backend
 
 
 def _f(x: Any) -> float:
@@ -236,8 +294,29 @@ class RomBackend:
                               f", or batched {', '.join(ROM_BATCH_NAMES)}) yet (issue 3)")
 
     def validate(self, pmax: float, options: Mapping[str, Any]) -> None:
-        """Check that the model is there (before any task runs)."""
+        """Check that the model is there and ``options`` are :class:`~multimorph.rom.RomOptions`
+        fields of the right types (before any task runs; SpecError naming the key)."""
         self._api()
+        import dataclasses
+
+        from multimorph.rom import RomOptions
+
+        fields = {f.name: f.default for f in dataclasses.fields(RomOptions)}
+        for key, value in options.items():
+            if key not in fields:
+                raise SpecError(f"sweep.options.{key}: not a reduced-model option; known: "
+                                f"{', '.join(sorted(fields))}")
+            default = fields[key]
+            if isinstance(default, bool):
+                ok = isinstance(value, bool)
+            elif isinstance(default, int):
+                ok = isinstance(value, int) and not isinstance(value, bool) and 1 <= value <= 64
+            else:
+                ok = (isinstance(value, int | float) and not isinstance(value, bool)
+                      and math.isfinite(value) and value > 0)
+            if not ok:
+                raise SpecError(f"sweep.options.{key}: expected "
+                                f"{type(default).__name__} like {default!r}, got {value!r}")
 
     def evaluate_batch(self, designs: Sequence[CellGeometry | TiltedCell], pmax: float,
                        outputs: Sequence[str], options: Mapping[str, Any]) -> list[Any]:

@@ -23,6 +23,7 @@ import numpy as np
 
 from multimorph.errors import SpecError
 from multimorph.geometry import CELL_KEYS
+from multimorph.limits import format_bytes
 from multimorph.materials import Material
 from multimorph.units import to_si
 
@@ -35,6 +36,8 @@ RATIO_NAMES = {"ht/d": "top_wall", "ws/d": "side_wall", "df/d": "end_wall",
 MODULUS_NAMES = ("mu", "mu_b/mu")
 #: The chamber tilt β of a twisting sweep's tilted cells (angle; bare numbers are rad).
 TILT_NAME = "tilt"
+#: Most values of one parameter (a range's ``num`` or a list).
+MAX_VALUES = 1_000_000
 _ENTRY_KEYS = {"name", "path", "values", "start", "stop", "num", "scale", "label"}
 
 
@@ -183,6 +186,9 @@ def parse_parameter(entry: Mapping[str, Any], *, field: str, base_material: Mate
             raise SpecError(f"{field}.values: expected a list, got {raw!r}")
         if not raw:
             raise SpecError(f"{field}.values: empty list (no values to sweep)")
+        if len(raw) > MAX_VALUES:
+            raise SpecError(f"{field}.values: {len(raw)} values; a parameter takes at most "
+                            f"{MAX_VALUES}")
         vals = tuple(_quantity(v, unit, f"{field}.values[{i}]") for i, v in enumerate(raw))
         return Parameter(name, kind, target, unit, vals, None, None, "list")
 
@@ -199,6 +205,9 @@ def parse_parameter(entry: Mapping[str, Any], *, field: str, base_material: Mate
         raise SpecError(f"{field}.num: expected an integer, got {num!r}")
     if num is not None and num < 1:
         raise SpecError(f"{field}: empty range (num = {num}); need num >= 1")
+    if num is not None and num > MAX_VALUES:
+        raise SpecError(f"{field}.num: {num} values ({format_bytes(8.0 * num)} for the values "
+                        f"alone); a parameter takes at most {MAX_VALUES}")
     if scale == "log" and not (start > 0 and stop > 0):
         raise SpecError(f"{field}: a log range needs start > 0 and stop > 0, got "
                         f"{entry['start']!r} .. {entry['stop']!r}")

@@ -28,9 +28,9 @@ from typing import Any
 
 import numpy as np
 
-from multimorph.errors import SpecError
+from multimorph.errors import MultimorphError, SpecError
 from multimorph.geometry import CellGeometry
-from multimorph.sweep._backends import SweepBackend, evaluate_designs, get_backend
+from multimorph.sweep._backends import SweepBackend, evaluate_designs, get_backend, load_plugin
 from multimorph.sweep._spec import SweepSpec, load_sweep_spec
 from multimorph.sweep._store import SweepStore
 
@@ -168,11 +168,50 @@ def _run_distributed(jobs: list[_Job], client: Any, retries: int,
         fut.release()
 
 
+#: Seconds to wait for a scheduler address to answer (before anything is created).
+SCHEDULER_TIMEOUT = 10.0
+#: Most worker processes or threads per CPU core.
+WORKERS_PER_CPU = 8
+
+
+def _check_workers(workers: int | None, scheduler: str | None) -> None:
+    if workers is None:
+        return
+    if workers < 1:
+        raise SpecError(f"--workers: must be >= 1, got {workers}")
+    cpus = os.cpu_count() or 1
+    if scheduler in (None, "local", "threads") and workers > WORKERS_PER_CPU * cpus:
+        raise SpecError(f"--workers: {workers} workers on {cpus} CPU core(s) (each a process "
+                        f"or thread holding a model); at most {WORKERS_PER_CPU * cpus} here")
+
+
+def _check_reachable(address: str) -> None:
+    """Refuse a scheduler address that does not accept connections (SpecError)."""
+    import socket
+    from urllib.parse import urlsplit
+
+    parts = urlsplit(address if "://" in address else f"tcp://{address}")
+    try:
+        host, port = parts.hostname, parts.port
+    except ValueError:
+        host, port = None, None
+    if parts.scheme not in ("tcp", "tls", "ws", "wss") or not host or port is None:
+        raise SpecError(f"--scheduler: expected an address such as tcp://host:8786, got "
+                        f"{address!r}")
+    try:
+        with socket.create_connection((host, port), timeout=SCHEDULER_TIMEOUT):
+            pass
+    except OSError as exc:
+        raise SpecError(f"--scheduler: cannot reach {address} "
+                        f"({exc.strerror or exc})") from None
+
+
 def run_sweep(spec: SweepSpec | str | os.PathLike[str], out: str | os.PathLike[str], *,
               scheduler: str | None = None, workers: int | None = None,
               batch_size: int | None = None, retries: int = 2, client: Any = None,
               backend: SweepBackend | None = None, progress: ProgressFn | None = None,
-              retry_failed: bool = False, limit: int | None = None) -> SweepSummary:
+              retry_failed: bool = False, limit: int | None = None,
+              allow_plugins: Sequence[str] = ()) -> SweepSummary:
     """Run (or resume) a sweep into the folder ``out``.
 
     Parameters
@@ -202,28 +241,56 @@ def run_sweep(spec: SweepSpec | str | os.PathLike[str], out: str | os.PathLike[s
     limit : int, optional
         Evaluate at most this many of the pending designs in this run (in design order; a
         later run goes on with the rest), e.g. to grow a long FE sweep in passes.
+    allow_plugins : sequence of str
+        ``"package.module:factory"`` backends the spec may name (the command line's
+        ``--allow-plugin``); a spec alone can only name registered backends.
+
+    Raises
+    ------
+    SpecError
+        Before anything is created or run: a malformed spec or option, an unknown backend,
+        too many designs for the memory, every design invalid, an ``out`` folder that holds
+        something else, or a scheduler address that does not answer.
 
     Returns
     -------
     SweepSummary
     """
     t0 = time.perf_counter()
+    # every check before anything is created: spec, backend, options, size, scheduler, folder
     if scheduler not in (None, "local", "threads", "sync") and ":" not in str(scheduler):
-        raise SpecError(f"scheduler: expected local, threads, sync or an address such as "
+        raise SpecError(f"--scheduler: expected local, threads, sync or an address such as "
                         f"tcp://host:8786, got {scheduler!r}")
+    _check_workers(workers, scheduler if client is None else "client")
+    for path in allow_plugins:
+        load_plugin(path)
     text = None
+    where = ""
     if not isinstance(spec, SweepSpec):
-        text = Path(spec).read_text(encoding="utf-8") if Path(spec).is_file() else None
-        spec = load_sweep_spec(spec)
-    be = backend if backend is not None else get_backend(spec.backend)
-    validate = getattr(be, "validate", None)
-    if validate is not None:
-        validate(spec.pmax, spec.options)
+        path = Path(spec)
+        spec = load_sweep_spec(path)  # a non-UTF-8 or malformed file fails here, cleanly
+        text = path.read_text(encoding="utf-8")
+        where = f"{path}: "
+    try:
+        be = backend if backend is not None else get_backend(spec.backend,
+                                                             plugins=allow_plugins)
+        validate = getattr(be, "validate", None)
+        if validate is not None:
+            validate(spec.pmax, spec.options)
+        table = spec.design_table()
+        if len(table.invalid) == len(table):
+            first = table.invalid[0]
+            raise SpecError(f"sweep: all {len(table)} designs are invalid, nothing to run "
+                            f"(design {first.index} {first.values}: {first.reason})")
+    except SpecError as exc:
+        raise type(exc)(f"{where}{exc}") from None
     bs = int(batch_size or be.batch_size)
     if bs < 1:
-        raise SpecError(f"batch size must be >= 1, got {bs}")
-    table = spec.design_table()
+        raise SpecError(f"--batch-size: must be >= 1, got {bs}")
     store = SweepStore(out, spec, table, spec_text=text)
+    store.check()
+    if client is None and scheduler not in (None, "local", "threads", "sync"):
+        _check_reachable(str(scheduler))
     label = "client" if client is not None else (scheduler or "local")
     with store.locked():
         store.prepare()
@@ -265,7 +332,12 @@ def run_sweep(spec: SweepSpec | str | os.PathLike[str], out: str | os.PathLike[s
                             Client(cluster) as cl:
                         _run_distributed(jobs, cl, retries, write)
                 else:
-                    with Client(scheduler) as cl:
+                    try:
+                        cl = Client(scheduler, timeout=SCHEDULER_TIMEOUT)
+                    except (OSError, TimeoutError) as exc:
+                        raise MultimorphError(f"--scheduler: cannot connect to {scheduler} "
+                                              f"({exc})") from None
+                    with cl:
                         _run_distributed(jobs, cl, retries, write)
         t2 = time.perf_counter()
         results = store.consolidate()

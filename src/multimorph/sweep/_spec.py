@@ -44,7 +44,7 @@ import itertools
 import json
 import math
 import os
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -54,6 +54,7 @@ import numpy as np
 from multimorph.errors import SpecError
 from multimorph.geometry import CELL_KEYS, CellGeometry, TiltedCell
 from multimorph.io import load_toml
+from multimorph.limits import check_pressure_scale, format_bytes, memory_budget
 from multimorph.sweep._params import Parameter, parse_parameter
 from multimorph.units import to_si
 
@@ -68,6 +69,8 @@ COMBINE = ("grid", "zip", "random", "sobol", "lhs")
 CELL_KINDS = ("bending", "stretching", "twisting")
 _SWEEP_KEYS = {"backend", "outputs", "pmax", "combine", "samples", "seed", "parameter",
                "parameters", "options", "name", "kind", "tilt", "min_chamber"}
+#: Most points of one stored curve (the reduced model's step limit + 1; FE paths are shorter).
+CURVE_POINTS = 601
 # order in which parameter kinds are applied (ratios need the final d; mu_b/mu the final mu)
 _KIND_ORDER = {"length": 0, "material": 1, "ratio": 2, "modulus": 3, "tilt": 4}
 
@@ -294,6 +297,35 @@ def _parameter_entries(sweep: Mapping[str, Any]) -> list[tuple[str, Mapping[str,
     return entries
 
 
+def design_bytes(outputs: Sequence[str]) -> int:
+    """Estimated memory (bytes) a sweep holds per design: the design table entry (a built
+    cell, its parameters, about 2 kB) and, with ``"curves"``, a path of up to
+    :data:`CURVE_POINTS` points (pressure, curvature, peak stretch and stability)."""
+    return 2_000 + (CURVE_POINTS * (3 * 8 + 1) if "curves" in outputs else 0)
+
+
+def _check_size(params: Sequence[Parameter], combine: str, samples: int | None,
+                outputs: Sequence[str]) -> None:
+    """Refuse, before any work, a sweep whose estimated memory exceeds the budget."""
+    if combine == "random":
+        n, where = int(samples or 0), "sweep.samples"
+    elif combine == "zip":
+        n, where = len(params[0].values), "sweep"
+    else:
+        n = math.prod(len(q.values) for q in params)
+        where = "sweep"
+    need = n * design_bytes(outputs)
+    budget = memory_budget()
+    if need > budget:
+        grid = (f" (grid of {' x '.join(str(len(q.values)) for q in params)})"
+                if combine == "grid" and len(params) > 1 else "")
+        raise SpecError(
+            f"{where}: {n} designs{grid} x ~{format_bytes(design_bytes(outputs))} each "
+            f"(design table and results) = {format_bytes(need)}, more than this run may hold "
+            f"({format_bytes(budget)}, half the memory); use fewer values or samples, or "
+            "split the sweep")
+
+
 def parse_sweep_spec(raw: Mapping[str, Any]) -> SweepSpec:
     """Parse a sweep spec from a TOML mapping (see the module docstring).
 
@@ -387,6 +419,8 @@ def parse_sweep_spec(raw: Mapping[str, Any]) -> SweepSpec:
             if len(set(lens.values())) > 1:
                 raise SpecError("sweep.combine = \"zip\": parameters must have the same number "
                                 f"of values, got {lens}")
+    check_pressure_scale(pmax, base.mu, "sweep.pmax")
+    _check_size(params, combine, samples, outputs)
     return SweepSpec(base=base, parameters=tuple(params), combine=combine, samples=samples,
                      seed=seed, backend=backend, outputs=tuple(dict.fromkeys(outputs)),
                      pmax=pmax, options=dict(options),

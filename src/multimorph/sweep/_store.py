@@ -246,6 +246,39 @@ class SweepStore:
             "invalid": [p.to_dict() for p in table.invalid],
         }
 
+    def check(self) -> None:
+        """Check, without writing anything, that the folder can hold this sweep: missing or
+        empty, or a folder of this very sweep (to resume).
+
+        Raises
+        ------
+        SpecError
+            The folder is a file or lies under one, is not writable, holds results of a
+            different spec (hash mismatch) or something else (each message names --out).
+        """
+        from multimorph.io import check_output_dir
+
+        check_output_dir(self.path, in_place=True)
+        if not self.path.is_dir():
+            return
+        man = self.path / "sweep.json"
+        if man.exists():
+            try:
+                old = json.loads(man.read_text())
+            except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+                raise SpecError(f"--out: {man}: unreadable sweep manifest ({exc})") from None
+            if not isinstance(old, dict) or old.get("spec_hash") != self.spec.spec_hash:
+                old_hash = old.get("spec_hash") if isinstance(old, dict) else None
+                raise SpecError(
+                    f"--out: {self.path} holds results of a different sweep spec (hash "
+                    f"{str(old_hash)[:12]}, this spec {self.spec.spec_hash[:12]}); "
+                    "use another --out folder or delete that one")
+        else:
+            others = [p.name for p in self.path.iterdir() if not p.name.startswith(".")]
+            if others:
+                raise SpecError(f"--out: {self.path}: not a sweep folder and not empty "
+                                f"({', '.join(sorted(others)[:5])}); choose another --out")
+
     def prepare(self) -> None:
         """Create the folder (manifest, spec, design table) or check it holds this sweep.
 
@@ -254,23 +287,9 @@ class SweepStore:
         SpecError
             The folder holds results of a different spec (hash mismatch) or something else.
         """
+        self.check()
         self.path.mkdir(parents=True, exist_ok=True)
         man = self.path / "sweep.json"
-        if man.exists():
-            try:
-                old = json.loads(man.read_text())
-            except (OSError, json.JSONDecodeError) as exc:
-                raise SpecError(f"{man}: unreadable sweep manifest ({exc})") from None
-            if old.get("spec_hash") != self.spec.spec_hash:
-                raise SpecError(
-                    f"{self.path} holds results of a different sweep spec (hash "
-                    f"{str(old.get('spec_hash'))[:12]}, this spec {self.spec.spec_hash[:12]}); "
-                    "use another --out folder or delete that one")
-        else:
-            others = [p.name for p in self.path.iterdir() if not p.name.startswith(".")]
-            if others:
-                raise SpecError(f"{self.path}: not a sweep folder and not empty "
-                                f"({', '.join(sorted(others)[:5])}); choose another --out")
         for tmp in list(self.parts.glob(".tmp-*")) + list(self.path.glob(".tmp-*")):
             if tmp.is_dir():  # leftovers of a killed run
                 shutil.rmtree(tmp, ignore_errors=True)

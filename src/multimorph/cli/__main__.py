@@ -1,0 +1,5 @@
+"""``python -m multimorph.cli``: the same as the ``multimorph`` command."""
+
+from multimorph.cli._app import main
+
+main()
