@@ -30,8 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from multimorph.fe import FESettings, simulate_cell
-from multimorph.fe._compare import compare_responses
+from multimorph.fe import FESettings, compare_responses, simulate_cell
 from multimorph.geometry import CellGeometry
 from multimorph.materials import Material
 

@@ -30,7 +30,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from multimorph.fe._deps import require
-from multimorph.fe._material import felupe_umat
+from multimorph.fe.engine._material import felupe_umat
 from multimorph.materials import Material
 
 __all__ = ["AssemblyStats", "PressureProblem"]
