@@ -15,6 +15,7 @@ from typing import Any
 
 from multimorph.errors import MultimorphError
 from multimorph.geometry import CellGeometry
+from multimorph.outcome import Outcome
 from multimorph.response import Response
 
 __all__ = ["ROM_BATCH_NAMES", "BatchModel", "CountingModel", "batched", "rom_batch_model",
@@ -95,7 +96,7 @@ def _rom_fast(rom: Any, vectorise: bool | None = None) -> BatchModel | None:
                 continue
             r = batch.ratios
             for j, i in enumerate(idx):
-                if int(rb.status[j]) != 0:
+                if int(rb.status[j]) != Outcome.COMPLETED.code:
                     out[i] = MultimorphError(f"cell ROM: {rb.message(j)}")
                     continue
                 m = int(rb.count[j])

@@ -38,6 +38,7 @@ from multimorph.materials._loadcases import (
 from multimorph.materials._material import Material, Provenance
 from multimorph.materials._readers import LoadCurve, TestData, as_curves
 from multimorph.materials._registry import Law, get_law
+from multimorph.outcome import Outcome
 
 __all__ = ["CaseStats", "FitResult", "fit_material"]
 
@@ -92,9 +93,10 @@ class FitResult:
         The fitted material (with :class:`Provenance`: data file, fit range and error).
     params, stderr : mapping
         Fitted parameters and their standard errors (SI: Pa or -).
-    status : str
-        ``"converged"``, ``"at_bound"`` (converged with a parameter on a bound, named in
-        :attr:`message`), ``"max_evaluations"`` or ``"failed"``.
+    status : Outcome
+        ``CONVERGED``, ``AT_BOUND`` (converged with a parameter on a bound, named in
+        :attr:`message`), ``MAX_EVALUATIONS`` or ``FAILED``
+        (:class:`~multimorph.outcome.Outcome`; strings ``"converged"`` … in JSON).
     per_case : dict of CaseStats
         R², relative RMS, median relative error per load case.
     relative_rms, median_relative_error : float
@@ -106,7 +108,7 @@ class FitResult:
     material: Material
     params: Mapping[str, float]
     stderr: Mapping[str, float]
-    status: str
+    status: Outcome
     message: str
     residual: str
     residual_definition: str
@@ -123,7 +125,8 @@ class FitResult:
 
     @property
     def success(self) -> bool:
-        return self.status in ("converged", "at_bound")
+        """Whether the fit converged (also with a parameter on a bound)."""
+        return self.status.ok
 
     @property
     def model(self) -> str:
@@ -317,7 +320,7 @@ def fit_material(
     >>> lam = np.linspace(1.1, 3.0, 12)
     >>> true = Material("gent", {"mu": 2e5, "jm": 30.0})
     >>> res = fit_material("gent", {"uniaxial": (lam, true.nominal_stress("uniaxial", lam))})
-    >>> res.status, round(res.params["mu"]), round(res.params["jm"], 3)
+    >>> str(res.status), round(res.params["mu"]), round(res.params["jm"], 3)
     ('converged', 200000, 30.0)
     """
     from scipy.optimize import least_squares
@@ -441,13 +444,13 @@ def fit_material(
 
     at_bound = [k for k, a in zip(names, best.active_mask, strict=True) if a != 0]
     if best.status > 0:
-        status = "at_bound" if at_bound else "converged"
+        status = Outcome.AT_BOUND if at_bound else Outcome.CONVERGED
         message = best.message + (f" Parameter(s) on a bound: {', '.join(at_bound)}."
                                   if at_bound else "")
     elif best.status == 0:
-        status, message = "max_evaluations", best.message
+        status, message = Outcome.MAX_EVALUATIONS, best.message
     else:
-        status, message = "failed", best.message
+        status, message = Outcome.FAILED, best.message
 
     data_name = name if name is not None else (data.name if isinstance(data, TestData) else "")
     break_stretch = None
