@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from multimorph.response._types import _PATH_ARRAYS, EquilibriumPath
+from multimorph.response._types import PATH_ARRAYS, EquilibriumPath
 
 __all__ = ["observed_curves", "observed_positions"]
 
@@ -84,7 +84,7 @@ def _interp_path(path: EquilibriumPath, pos: np.ndarray, snap: np.ndarray) -> Eq
             return np.interp(pos, idx, a)
         return np.stack([np.interp(pos, idx, a[:, k]) for k in range(a.shape[1])], axis=1)
 
-    kw = {name: at(getattr(path, name)) for name in _PATH_ARRAYS if name != "stable"}
+    kw = {name: at(getattr(path, name)) for name in PATH_ARRAYS if name != "stable"}
     kw["stable"] = np.ones(pos.shape[0], bool)
     extra = {k: at(v) for k, v in path.extra.items() if np.asarray(v).dtype != bool}
     extra["snap"] = snap.astype(float)
