@@ -31,7 +31,7 @@ def fe_available() -> tuple[bool, str]:
     try:
         import felupe  # noqa: F401
 
-        from multimorph.fe._deps import MissingExtraError  # noqa: F401
+        from multimorph.fe import MissingExtraError  # noqa: F401
     except ImportError as exc:
         return False, (f"the FE dependencies are not installed ({exc}); install "
                        "'multimorph[fe]'")
