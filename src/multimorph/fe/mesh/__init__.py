@@ -16,18 +16,16 @@ from multimorph.fe.mesh._branches import (
     in_grid,
 )
 from multimorph.fe.mesh._cell import MAX_TILT, CellMesh, cell_mesh
+from multimorph.fe.mesh._density import MESH_PRESETS, MeshDensity, resolve_density
 from multimorph.fe.mesh._device import DeviceMesh, Hub, device_mesh
 from multimorph.fe.mesh._hex import (
     BOTTOM,
     HEX_FACES,
-    MESH_PRESETS,
     REGION_NAMES,
     SHAFT,
     WALL,
     HexMesh,
-    MeshDensity,
     hex_boundary,
-    resolve_density,
 )
 from multimorph.fe.mesh._twist import CORE, TwistMesh, twisting_module_mesh
 

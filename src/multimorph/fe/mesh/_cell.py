@@ -20,18 +20,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from multimorph.errors import SpecError
-from multimorph.fe.mesh._hex import (
-    BOTTOM,
-    WALL,
-    HexMesh,
-    MeshDensity,
-    box_grid,
-    box_surface,
-    chamber_faces_of,
-    compact,
-    graded_axis,
-    resolve_density,
-)
+from multimorph.fe.mesh._density import MeshDensity, resolve_density
+from multimorph.fe.mesh._hex import BOTTOM, WALL, HexMesh, carve, chamber_surface, graded_axis
 from multimorph.geometry import CellGeometry
 from multimorph.materials import Material
 
@@ -188,28 +178,22 @@ def cell_mesh(geometry: CellGeometry, mesh: str | MeshDensity = "coarse", *,
         ybreaks += [k * d + geo.df, (k + 1) * d - geo.df, (k + 1) * d]
     ys = graded_axis(ybreaks, edge, n, {i for i in range(len(ybreaks) - 1) if i % 3 != 1})
     zs = graded_axis([0.0, geo.hb, geo.hb + geo.hc, H], edge, n, {0, 2})
-    pts, cells = box_grid(xs, ys, zs)
-
-    cen = pts[cells].mean(axis=1)
     x0, x1 = geo.ws, w - geo.ws
     z0, z1 = geo.hb, geo.hb + geo.hc
-    # position within its own cell: chambers at [df, d − df] of every cell
-    yl = np.mod(cen[:, 1], d)
-    inside = ((cen[:, 0] > x0) & (cen[:, 0] < x1) & (yl > geo.df) & (yl < d - geo.df)
-              & (cen[:, 2] > z0) & (cen[:, 2] < z1))
-    cells = cells[~inside]
-    cen = cen[~inside]
-    pts, cells = compact(pts, cells)
+
+    def solid(cen: np.ndarray) -> np.ndarray:
+        # position within its own cell: chambers at [df, d − df] of every cell
+        yl = np.mod(cen[:, 1], d)
+        return ~((cen[:, 0] > x0) & (cen[:, 0] < x1) & (yl > geo.df) & (yl < d - geo.df)
+                 & (cen[:, 2] > z0) & (cen[:, 2] < z1))
+
+    pts, cells, cen = carve(xs, ys, zs, solid)
     region = np.where(cen[:, 2] < geo.hb, BOTTOM, WALL).astype(np.int8)
-
     tol = 1e-9 * max(w, L, H)
+    chamber_points, faces, _ = chamber_surface(
+        pts, cells, [((x0, k * d + geo.df, z0), (x1, (k + 1) * d - geo.df, z1))
+                     for k in range(n_cells)], tol)
     px, py, pz = pts.T
-    chamber_points = np.zeros(len(pts), dtype=bool)
-    for k in range(n_cells):
-        chamber_points |= box_surface(pts, (x0, k * d + geo.df, z0),
-                                      (x1, (k + 1) * d - geo.df, z1), tol)
-    faces, _ = chamber_faces_of(cells, chamber_points)
-
     clamped = np.abs(py) < tol
     mirror = (np.abs(px - w / 2) < tol) if half else np.zeros(len(pts), dtype=bool)
     line = np.flatnonzero((np.abs(px) < tol) & (np.abs(pz) < tol))

@@ -37,19 +37,15 @@ from multimorph.fe.mesh._branches import (
     placements,
     section_layout,
 )
+from multimorph.fe.mesh._density import MeshDensity, resolve_density
 from multimorph.fe.mesh._hex import (
     BOTTOM,
-    HEX_FACES,
     WALL,
     HexMesh,
-    MeshDensity,
-    box_grid,
-    box_surface,
-    chamber_faces_of,
-    compact,
+    carve,
+    chamber_surface,
     graded_axis,
     material_bodies,
-    resolve_density,
 )
 from multimorph.fe.mesh._twist import twisting_module_mesh
 from multimorph.materials import Material
@@ -226,23 +222,27 @@ def _series_mesh(mods: tuple[Module, ...], density: MeshDensity, half: bool) -> 
         ys.append(graded_axis(br, density.edge(cell), n, walls)[1:])
         starts.append(br[-1])
     y_at = np.array(starts)
-    pts, cells = box_grid(xs, np.concatenate(ys), zs)
-    cen = pts[cells].mean(axis=1)
-    mod = np.clip(np.searchsorted(y_at, cen[:, 1]) - 1, 0, len(mods) - 1)
 
-    def per(key: str) -> np.ndarray:
-        return np.array([q[key] for q in layout])[mod]
+    def module_of(cen: np.ndarray) -> np.ndarray:
+        return np.clip(np.searchsorted(y_at, cen[:, 1]) - 1, 0, len(mods) - 1)
 
-    d = np.array([module.cell.d for module in mods])[mod]
-    df = np.array([module.cell.df for module in mods])[mod]
-    dx = np.abs(cen[:, 0] - W / 2)
-    yl = np.mod(cen[:, 1] - y_at[mod], d)
-    in_box = (dx < W / 2 - per("x0")) & (cen[:, 2] > per("zb")) & (cen[:, 2] < per("zt"))
-    chamber = ((dx < W / 2 - per("xc")) & (yl > df) & (yl < d - df)
-               & (cen[:, 2] > per("z0")) & (cen[:, 2] < per("z1")))
-    keep = in_box & ~chamber
-    cells, cen, mod = cells[keep], cen[keep], mod[keep]
-    pts, cells = compact(pts, cells)
+    def solid(cen: np.ndarray) -> np.ndarray:
+        mod = module_of(cen)
+
+        def per(key: str) -> np.ndarray:
+            return np.array([q[key] for q in layout])[mod]
+
+        d = np.array([module.cell.d for module in mods])[mod]
+        df = np.array([module.cell.df for module in mods])[mod]
+        dx = np.abs(cen[:, 0] - W / 2)
+        yl = np.mod(cen[:, 1] - y_at[mod], d)
+        in_box = (dx < W / 2 - per("x0")) & (cen[:, 2] > per("zb")) & (cen[:, 2] < per("zt"))
+        chamber = ((dx < W / 2 - per("xc")) & (yl > df) & (yl < d - df)
+                   & (cen[:, 2] > per("z0")) & (cen[:, 2] < per("z1")))
+        return in_box & ~chamber
+
+    pts, cells, cen = carve(xs, np.concatenate(ys), zs, solid)
+    mod = module_of(cen)
     bot = np.array([q["bot"] for q in layout])[mod]
     region = np.where((cen[:, 2] > bot[:, 0]) & (cen[:, 2] < bot[:, 1]), BOTTOM,
                       WALL).astype(np.int8)
@@ -257,15 +257,12 @@ def _series_mesh(mods: tuple[Module, ...], density: MeshDensity, half: bool) -> 
 
     tol = 1e-9 * max(W, H, starts[-1])
     px, py, pz = pts.T
-    chamber_points = np.zeros(len(pts), dtype=bool)
-    for module, q, y0 in zip(mods, layout, starts, strict=False):
-        cell = module.cell
-        for k in range(module.n_cells):
-            chamber_points |= box_surface(
-                pts, (q["xc"], y0 + k * cell.d + cell.df, q["z0"]),
-                (W - q["xc"], y0 + (k + 1) * cell.d - cell.df, q["z1"]), tol)
-    faces, on = chamber_faces_of(cells, chamber_points)
-    face_module = np.repeat(mod, len(HEX_FACES))[on]
+    chamber_points, faces, face_cell = chamber_surface(
+        pts, cells, [((q["xc"], y0 + k * module.cell.d + module.cell.df, q["z0"]),
+                      (W - q["xc"], y0 + (k + 1) * module.cell.d - module.cell.df, q["z1"]))
+                     for module, q, y0 in zip(mods, layout, starts, strict=False)
+                     for k in range(module.n_cells)], tol)
+    face_module = mod[face_cell]
 
     def section(y: float, q: dict[str, float]) -> np.ndarray:
         return np.flatnonzero((np.abs(py - y) < tol) & (px > q["x0"] - tol)

@@ -5,7 +5,7 @@ Every FE mesh of the package (a cell or module, a device, a twisting module) is 
 (FElupe's pressure boundary needs hex/quad faces), the clamped nodes and, for a half model,
 the nodes on the mirror plane x = const. A grid is built by cutting a box at every wall
 plane (:func:`graded_axis` divides each interval), deleting the cells inside the chambers
-and dropping the unused nodes (:func:`compact`).
+and dropping the unused nodes (:func:`_compact`).
 """
 
 from __future__ import annotations
@@ -13,18 +13,15 @@ from __future__ import annotations
 import itertools
 import math
 from abc import ABC, abstractmethod
-from collections.abc import Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-from multimorph.errors import SpecError
-from multimorph.geometry import CellGeometry
 from multimorph.materials import Material
 
-__all__ = ["BOTTOM", "HEX_FACES", "MESH_PRESETS", "REGION_NAMES", "SHAFT", "WALL", "HexMesh",
-           "MeshDensity", "boundary_faces", "box_grid", "box_surface", "chamber_faces_of",
-           "compact", "graded_axis", "hex_boundary", "material_bodies", "resolve_density"]
+__all__ = ["BOTTOM", "HEX_FACES", "REGION_NAMES", "SHAFT", "WALL", "HexMesh", "carve",
+           "chamber_surface", "graded_axis", "hex_boundary", "material_bodies"]
 
 WALL, BOTTOM, SHAFT = 0, 1, 2
 """Region tags: wall elastomer (top, side and end walls), the stiff bottom layer, and a
@@ -36,59 +33,6 @@ REGION_NAMES = ("wall", "bottom layer", "shaft")
 #: local faces of a VTK hexahedron, each ordered counter-clockwise seen from outside the cell
 HEX_FACES = np.array([[0, 3, 2, 1], [4, 5, 6, 7], [0, 1, 5, 4],
                       [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]])
-
-
-@dataclass(frozen=True)
-class MeshDensity:
-    """How finely to divide a cell.
-
-    Parameters
-    ----------
-    wall_elements : int
-        Elements through the thickness of every wall (≥ 1).
-    size : float or None
-        Target element edge length (m); ``None`` uses ``length_fraction``.
-    length_fraction : float
-        Target edge length as a fraction of the cell length d (used when ``size`` is None).
-    """
-
-    wall_elements: int = 2
-    size: float | None = None
-    length_fraction: float = 0.1
-
-    def edge(self, geometry: CellGeometry) -> float:
-        """The target edge length (m) for a cell of ``geometry``."""
-        return self.size if self.size is not None else self.length_fraction * geometry.length
-
-
-#: Named densities. At the reference cell (d 20, w 10, h 8, walls 1–2 mm) the half model has
-#: about 1.6k (coarse), 4.7k (medium) and 11k (fine) displacement DOF.
-MESH_PRESETS: dict[str, MeshDensity] = {
-    "coarse": MeshDensity(wall_elements=2, length_fraction=1 / 10),
-    "medium": MeshDensity(wall_elements=3, length_fraction=1 / 16),
-    "fine": MeshDensity(wall_elements=4, length_fraction=1 / 24),
-}
-
-
-def resolve_density(mesh: str | MeshDensity = "coarse", element_size: float | None = None,
-                    ) -> MeshDensity:
-    """A :class:`MeshDensity` from a preset name and/or an explicit element size (m).
-
-    An explicit size keeps at least two elements through each wall.
-    """
-    if isinstance(mesh, MeshDensity):
-        base = mesh
-    else:
-        try:
-            base = MESH_PRESETS[str(mesh).lower()]
-        except KeyError:
-            raise SpecError(f"mesh: unknown preset {mesh!r}; expected one of "
-                            f"{', '.join(MESH_PRESETS)}") from None
-    if element_size is not None:
-        if not (math.isfinite(element_size) and element_size > 0):
-            raise SpecError(f"element_size: must be a positive length, got {element_size!r}")
-        return MeshDensity(wall_elements=max(2, base.wall_elements), size=float(element_size))
-    return base
 
 
 @dataclass(frozen=True, eq=False)
@@ -175,7 +119,7 @@ def graded_axis(breaks: list[float], edge: float, wall: int, walls: set[int]) ->
     return np.concatenate(out)
 
 
-def box_grid(xs: np.ndarray, ys: np.ndarray, zs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _box_grid(xs: np.ndarray, ys: np.ndarray, zs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The points and hexahedra (VTK order) of the tensor grid ``xs × ys × zs``."""
     X, Y, Z = np.meshgrid(xs, ys, zs, indexing="ij")
     pts = np.column_stack([X.ravel(), Y.ravel(), Z.ravel()])
@@ -188,7 +132,7 @@ def box_grid(xs: np.ndarray, ys: np.ndarray, zs: np.ndarray) -> tuple[np.ndarray
     return pts, np.column_stack([a, b, c, e, a + 1, b + 1, c + 1, e + 1])
 
 
-def box_surface(points: np.ndarray, lo: Sequence[float], hi: Sequence[float], tol: float,
+def _box_surface(points: np.ndarray, lo: Sequence[float], hi: Sequence[float], tol: float,
                 ) -> np.ndarray:
     """The points on the surface of the box ``lo`` … ``hi`` (within ``tol``)."""
     inside = np.ones(len(points), dtype=bool)
@@ -199,7 +143,7 @@ def box_surface(points: np.ndarray, lo: Sequence[float], hi: Sequence[float], to
     return inside & on_plane
 
 
-def compact(points: np.ndarray, cells: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _compact(points: np.ndarray, cells: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Drop the points no cell uses and renumber the connectivity."""
     used = np.unique(cells)
     renum = -np.ones(len(points), dtype=np.int64)
@@ -207,7 +151,7 @@ def compact(points: np.ndarray, cells: np.ndarray) -> tuple[np.ndarray, np.ndarr
     return points[used], renum[cells]
 
 
-def boundary_faces(cells: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _boundary_faces(cells: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """All ``len(cells) · 6`` faces of the hexahedra (cell-major, counter-clockwise seen from
     outside their element) and the mask of those on the boundary (faces of one element)."""
     faces = cells[:, HEX_FACES].reshape(-1, 4)
@@ -216,7 +160,7 @@ def boundary_faces(cells: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return faces, counts[inv.ravel()] == 1
 
 
-def chamber_faces_of(cells: np.ndarray, chamber_points: np.ndarray,
+def _chamber_faces(cells: np.ndarray, chamber_points: np.ndarray,
                      ) -> tuple[np.ndarray, np.ndarray]:
     """The boundary quads whose nodes all lie on a chamber surface.
 
@@ -225,14 +169,39 @@ def chamber_faces_of(cells: np.ndarray, chamber_points: np.ndarray,
     for per-cell tags). The solid's outward normal points *into* the chamber, so the faces
     are reversed (the volume integral wants the chamber's outward normal).
     """
-    faces, outer = boundary_faces(cells)
+    faces, outer = _boundary_faces(cells)
     on = outer & np.all(chamber_points[faces], axis=1)
     return faces[on][:, ::-1].copy(), on
+
+
+def carve(xs: np.ndarray, ys: np.ndarray, zs: np.ndarray,
+          solid: Callable[[np.ndarray], np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The tensor grid ``xs × ys × zs`` cut down to the cells whose centroid ``solid`` keeps
+    (``solid(centroids)`` is a mask), the unused nodes dropped: the points, the cells (VTK
+    hexahedra) and the kept cells' centroids."""
+    points, cells = _box_grid(xs, ys, zs)
+    centroids = points[cells].mean(axis=1)
+    keep = solid(centroids)
+    points, cells = _compact(points, cells[keep])
+    return points, cells, centroids[keep]
+
+
+def chamber_surface(points: np.ndarray, cells: np.ndarray,
+                    boxes: Iterable[tuple[Sequence[float], Sequence[float]]], tol: float,
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The chambers of a carved grid: the nodes on the surface of the chamber ``boxes``
+    (each its lower and upper corner, within ``tol``), the chamber faces (normals out of the
+    chamber) and the element of each face."""
+    on = np.zeros(len(points), dtype=bool)
+    for lo, hi in boxes:
+        on |= _box_surface(points, lo, hi, tol)
+    faces, mask = _chamber_faces(cells, on)
+    return on, faces, np.repeat(np.arange(len(cells)), len(HEX_FACES))[mask]
 
 
 def hex_boundary(cells: np.ndarray) -> np.ndarray:
     """The boundary quads of a hexahedral mesh (faces of exactly one element), ordered
     counter-clockwise seen from outside that element: their normals point away from the
     material, out of the outer surface and into every cavity (chambers)."""
-    faces, outer = boundary_faces(cells)
+    faces, outer = _boundary_faces(cells)
     return faces[outer]

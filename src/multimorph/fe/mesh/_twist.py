@@ -39,14 +39,8 @@ import numpy as np
 from multimorph.device import Module
 from multimorph.errors import SpecError
 from multimorph.fe.mesh._cell import CellMesh, cell_mesh
-from multimorph.fe.mesh._hex import (
-    BOTTOM,
-    SHAFT,
-    HexMesh,
-    MeshDensity,
-    material_bodies,
-    resolve_density,
-)
+from multimorph.fe.mesh._density import MeshDensity, resolve_density
+from multimorph.fe.mesh._hex import BOTTOM, SHAFT, HexMesh, material_bodies
 from multimorph.materials import Material
 
 __all__ = ["CORE", "TwistMesh", "twisting_module_mesh"]
