@@ -124,28 +124,28 @@ def _print_summary(result: Any, rob: Any, folder: Path, files: list[str]) -> Non
         for e in result.explanation:
             console.print(f"  - {e}", highlight=False)
     best = result.best
-    for name, g in result.graded_stages().items():
-        pr = g.get("predicted")
+    for name, graded in result.graded_stages().items():
+        pr = graded.get("predicted")
         if pr is None:
             continue
-        kind = next(s.kind for s in t.stages if s.name == g["parts"][0])
-        m = pr["magnitude"]
-        mag = ("—" if m is None else f"{m * 100:.3g} %" if kind == "stretch"
-               else f"{math.degrees(m):.3g} deg")
-        w = g["wanted"]
-        console.print(f"  {name}: graded ({' + '.join(g['parts'])}): starts "
+        kind = next(stage.kind for stage in t.stages if stage.name == graded["parts"][0])
+        magnitude = pr["magnitude"]
+        mag = ("—" if magnitude is None else f"{magnitude * 100:.3g} %" if kind == "stretch"
+               else f"{math.degrees(magnitude):.3g} deg")
+        w = graded["wanted"]
+        console.print(f"  {name}: graded ({' + '.join(graded['parts'])}): starts "
                       f"{_kpa(pr['start_pressure'])} (wanted {_kpa(w['start_pressure'])}), "
                       f"completes {_kpa(pr['end_pressure'])} (wanted {_kpa(w['end_pressure'])}),"
                       f" {mag}: {'met' if pr['met'] else 'not met'}", highlight=False)
     if best is not None:
-        for st, sr in zip(t.stages, best.stages, strict=True):
-            mag = (f"{sr.magnitude * 100:.3g} %" if st.kind == "stretch"
-                   else f"{math.degrees(sr.magnitude):.3g} deg")
-            pc = "—" if sr.start is None else f"{sr.start / 1e3:.4g}"
-            ph = "—" if sr.end is None else f"{sr.end / 1e3:.4g}"
-            console.print(f"  {st.name:<12} {st.kind:<8} Pc {pc} kPa, Ph {ph} kPa "
-                          f"(wanted {st.end_pressure / 1e3:.4g}), {mag}, {sr.n_cells} cells",
-                          highlight=False)
+        for stage, found in zip(t.stages, best.stages, strict=True):
+            mag = (f"{found.magnitude * 100:.3g} %" if stage.kind == "stretch"
+                   else f"{math.degrees(found.magnitude):.3g} deg")
+            pc = "—" if found.start is None else f"{found.start / 1e3:.4g}"
+            ph = "—" if found.end is None else f"{found.end / 1e3:.4g}"
+            console.print(f"  {stage.name:<12} {stage.kind:<8} Pc {pc} kPa, Ph {ph} kPa "
+                          f"(wanted {stage.end_pressure / 1e3:.4g}), {mag}, {found.n_cells} "
+                          f"cells", highlight=False)
     if rob is not None:
         console.print(f"  robustness: P(order holds) = {rob.p_order:.1%}, P(all targets met) "
                       f"= {rob.p_meets:.1%} over {rob.n_samples} samples", highlight=False)

@@ -180,7 +180,7 @@ def _job(spec: Path, table: dict[str, Any], *, mesh: str, element_size: str | No
             raise SpecError(f"--{'cells' if cells != 1 else 'tilt'}: applies to a cell "
                             f"spec; with --module the module table gives them")
         device = device_from_spec(table)
-        names = [m.name for m in device.modules]
+        names = [entry.name for entry in device.modules]
         if module not in names:
             raise SpecError(f"--module: no module named {module!r} in {spec} (modules: "
                             f"{', '.join(names)})")

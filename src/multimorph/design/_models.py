@@ -67,8 +67,8 @@ def _rom_fast(rom: Any, vectorise: bool | None = None) -> BatchModel | None:
     def measures_fn(wall: str, bottom: str, options: Any) -> Any:
         key = (wall, bottom, options)
         if key not in compiled:
-            ck = rom.cell_kernel(wall, bottom, options)
-            inner = jax.vmap(ck.measures, in_axes=(0, 0, None))
+            kernel = rom.cell_kernel(wall, bottom, options)
+            inner = jax.vmap(kernel.measures, in_axes=(0, 0, None))
             compiled[key] = jax.jit(jax.vmap(inner, in_axes=(0, 0, 0)))
         return compiled[key]
 
@@ -99,22 +99,23 @@ def _rom_fast(rom: Any, vectorise: bool | None = None) -> BatchModel | None:
                 if int(rb.status[j]) != Outcome.COMPLETED.code:
                     out[i] = MultimorphError(f"cell ROM: {rb.message(j)}")
                     continue
-                m = int(rb.count[j])
+                n_points = int(rb.count[j])
                 d = float(batch.length[j])
                 v0 = ((r["w"][j] - 2 * r["ws"][j]) * (r["h"][j] - r["ht"][j] - r["hb"][j])
                       * (1 - 2 * r["df"][j]) * d**3)
                 try:
                     path = EquilibriumPath(
-                        pressure=rb.pressure[j, :m], curvature=rb.curvature[j, :m],
-                        twist_rate=np.zeros(m), axial_stretch=1.0 + rb.q[j, :m, 3],
-                        volume=v0 + meas["volume"][j, :m] * d**3,
-                        peak_stretch=meas["peak_stretch"][j, :m], stable=rb.stable[j, :m],
-                        extra={"q": rb.q[j, :m], "lockup": meas["lockup"][j, :m]})
+                        pressure=rb.pressure[j, :n_points], curvature=rb.curvature[j, :n_points],
+                        twist_rate=np.zeros(n_points), axial_stretch=1.0 + rb.q[j, :n_points, 3],
+                        volume=v0 + meas["volume"][j, :n_points] * d**3,
+                        peak_stretch=meas["peak_stretch"][j, :n_points],
+                        stable=rb.stable[j, :n_points],
+                        extra={"q": rb.q[j, :n_points], "lockup": meas["lockup"][j, :n_points]})
                     bs = cells[i].material.break_stretch
                     out[i] = build_response(path, length=d, shear_modulus=float(batch.mu[j]),
                                             backend="rom", break_stretch=bs,
                                             signal=cells[i].signal,
-                                            meta={"model": "cell-ritz", "points": m})
+                                            meta={"model": "cell-ritz", "points": n_points})
                 except MultimorphError as exc:
                     out[i] = exc
         return out

@@ -217,11 +217,11 @@ def _mu_estimate(curves: Sequence[LoadCurve]) -> float:
     est = []
     for c in curves:
         lam, p = c.stretch, c.stress
-        g = _nh_shape(c.case, lam)
-        ok = (np.abs(g) > 1e-9) & (p > 0)
+        shape = _nh_shape(c.case, lam)
+        ok = (np.abs(shape) > 1e-9) & (p > 0)
         if not np.any(ok):
             continue
-        lam_ok, ratio = lam[ok], p[ok] / g[ok]
+        lam_ok, ratio = lam[ok], p[ok] / shape[ok]
         small = lam_ok <= max(1.5, float(np.quantile(lam_ok, 0.25)))
         est.append(float(np.median(ratio[small] if small.sum() >= 3 else ratio)))
     if not est:
@@ -230,7 +230,7 @@ def _mu_estimate(curves: Sequence[LoadCurve]) -> float:
 
 
 def _starts(law: Law, mu0: float, jm_min: float) -> list[dict[str, float]]:
-    g = law.guess(mu0)
+    base = law.guess(mu0)
     fam = law.family
     if fam == "gent":
         return [{"mu": mu0, "jm": jm} for jm in (max(1.5 * jm_min, 5.0), max(4 * jm_min, 30.0),
@@ -238,14 +238,14 @@ def _starts(law: Law, mu0: float, jm_min: float) -> list[dict[str, float]]:
     if fam == "arruda-boyce":
         return [{"mu": 0.9 * mu0, "lambda_m": lm} for lm in (2.5, 5.0, 12.0)]
     if fam in ("reduced-polynomial", "yeoh"):
-        zero = {k: (0.0 if k != "c10" else mu0 / 2) for k in g}
-        return [g, zero]
+        zero = {k: (0.0 if k != "c10" else mu0 / 2) for k in base}
+        return [base, zero]
     if fam == "mooney-rivlin":
-        return [g, {"c10": 0.5 * mu0, "c01": 0.0}]
+        return [base, {"c10": 0.5 * mu0, "c01": 0.0}]
     if fam == "ogden":
-        alt = {k: (v * 0.5 if k.startswith("alpha") and abs(v) > 2 else v) for k, v in g.items()}
-        return [g, alt]
-    return [g]
+        alt = {k: (v * 0.5 if k.startswith("alpha") and abs(v) > 2 else v) for k, v in base.items()}
+        return [base, alt]
+    return [base]
 
 
 def _clip_inside(x: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
@@ -405,9 +405,9 @@ def fit_material(
     best = None
     nfev = 0
     messages = []
-    for s in starts:
+    for start in starts:
         try:
-            x0 = np.array([float(s[k]) for k in names]) / scale
+            x0 = np.array([float(start[k]) for k in names]) / scale
         except KeyError as exc:
             raise SpecError(f"initial parameters for {law.name} need {exc.args[0]!r}") from None
         x0 = _clip_inside(x0, lower_s, upper_s)

@@ -138,7 +138,7 @@ def nominal_stress(material: LoadCaseMaterial, case: str, stretch: Any) -> np.nd
     lam = np.asarray(stretch, dtype=float)
     if np.any(~(lam > 0)):
         raise SpecError(f"{case}: stretches must be positive numbers")
-    material.check_lockup(*(np.asarray(s) for s in stretches(case, lam)), what=case)
+    material.check_lockup(*(np.asarray(stretch_i) for stretch_i in stretches(case, lam)), what=case)
     out = stress_function(material.model, case)(material.params_1972, lam)
     return np.asarray(out)
 

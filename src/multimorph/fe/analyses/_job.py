@@ -125,20 +125,8 @@ class FEOutcome:
 
 def run_job(job: FEJob, *, progress: Progress | None = None,
             checkpoint: PathCheckpoint | None = None) -> FEOutcome:
-    """Run an FE job and, with ``job.compare``, the reduced model beside it.
-
-    Parameters
-    ----------
-    job : FEJob
-    progress : callable, optional
-        ``progress(pressure_Pa, n_points)`` after every converged point.
-    checkpoint : PathCheckpoint, optional
-        Save every converged point there; resume from an interrupted run's points.
-
-    Returns
-    -------
-    FEOutcome
-    """
+    """Run an FE job and, with ``job.compare``, the reduced model beside it (``progress``
+    and ``checkpoint`` as for :func:`~multimorph.fe.simulate_cell`)."""
     comparison: Comparison | ShearComparison | dict[str, Any] | None = None
     if job.kind == "cell":
         assert job.geometry is not None

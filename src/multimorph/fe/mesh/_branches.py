@@ -247,9 +247,9 @@ def placements(branches: tuple[FEBranch, ...]) -> list[Placement]:
             if branch.parent is None:
                 origin, Q = axis0.copy(), np.eye(3)
             else:
-                o, R = end[branch.parent]
-                Q = R @ _rot_y(2.0 * math.pi * j / branch.count)
-                origin = o + Q @ np.array([0.0, 0.0, branch.radius])
+                end_origin, end_frame = end[branch.parent]
+                Q = end_frame @ _rot_y(2.0 * math.pi * j / branch.count)
+                origin = end_origin + Q @ np.array([0.0, 0.0, branch.radius])
             parent = None if branch.parent is None else (branch.parent, 0)
             for seg in _segments(branch.modules):
                 Qp = Q @ _rot_y(seg[0].orientation) if _turned(seg) else Q

@@ -324,7 +324,8 @@ def _branched_mesh(branches: tuple[FEBranch, ...], density: MeshDensity) -> Devi
             main = grid
         P = piece.origin + (grid["points"] - piece.centre) @ piece.Q.T
         e0 = len(entries)
-        mat = np.array([_index(materials, m) for m in grid["materials"]], dtype=np.int16)
+        mat = np.array([_index(materials, material) for material in grid["materials"]],
+                       dtype=np.int16)
         for key, val in (("points", P), ("cells", grid["cells"] + offset),
                          ("region", grid["region"]), ("material", mat[grid["material"]]),
                          ("module", grid["module"] + e0),

@@ -42,15 +42,16 @@ def export_cell_solid(geometry: CellGeometry, path: Path, n_cells: int = 1,
     """Write the cell solid (box minus chamber), or ``n_cells`` of them in series, as STEP or
     STL (by suffix) with gmsh OCC; ``tilt`` β shears it in the strip plane as the FE mesh
     (y' = y + (x − w/2) tan β, see :func:`~multimorph.fe.cell_mesh`)."""
-    g = geometry
-    outer = [(0.0, 0.0, 0.0, g.width, n_cells * g.length, g.height)]
-    inner = [(g.ws, k * g.length + g.df, g.hb, g.wc, g.dc, g.hc) for k in range(n_cells)]
+    cell = geometry
+    outer = [(0.0, 0.0, 0.0, cell.width, n_cells * cell.length, cell.height)]
+    inner = [(cell.ws, k * cell.length + cell.df, cell.hb, cell.wc, cell.dc, cell.hc)
+             for k in range(n_cells)]
     # affine map, row-major 3 × 4: y' = y + k x − k w/2
     shear = None
     if tilt:
         k = math.tan(tilt)
-        shear = [1, 0, 0, 0, k, 1, 0, -k * 0.5 * g.width, 0, 0, 1, 0]
-    export_box_solid(outer, inner, path, min(g.ht, g.ws, g.df, g.hb), affine=shear)
+        shear = [1, 0, 0, 0, k, 1, 0, -k * 0.5 * cell.width, 0, 0, 1, 0]
+    export_box_solid(outer, inner, path, min(cell.ht, cell.ws, cell.df, cell.hb), affine=shear)
 
 
 def export_box_solid(outer: Sequence[Sequence[float]], inner: Sequence[Sequence[float]],
@@ -78,24 +79,24 @@ def export_box_pieces(pieces: Sequence[tuple[Sequence[Sequence[float]],
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.model.add("solid")
         occ = gmsh.model.occ
-        s = 1e3  # CAD in mm
+        mm = 1e3  # CAD in mm
         solids = []
         for outer, inner, affine in pieces:
-            boxes = [(3, occ.addBox(*(v * s for v in b))) for b in outer]
+            boxes = [(3, occ.addBox(*(v * mm for v in b))) for b in outer]
             if len(boxes) > 1:
                 boxes, _ = occ.fuse(boxes[:1], boxes[1:])
-            holes = [(3, occ.addBox(*(v * s for v in b))) for b in inner]
+            holes = [(3, occ.addBox(*(v * mm for v in b))) for b in inner]
             solid, _ = occ.cut(boxes, holes) if holes else (boxes, None)
             if affine is not None:
                 a = list(affine)
-                occ.affineTransform(solid, [*a[0:3], a[3] * s, *a[4:7], a[7] * s,
-                                            *a[8:11], a[11] * s])
+                occ.affineTransform(solid, [*a[0:3], a[3] * mm, *a[4:7], a[7] * mm,
+                                            *a[8:11], a[11] * mm])
             solids += solid
         if len(solids) > 1:
             solids, _ = occ.fuse(solids[:1], solids[1:])
         occ.synchronize()
         if Path(path).suffix.lower() == ".stl":
-            gmsh.option.setNumber("Mesh.MeshSizeMax", stl_size * s)
+            gmsh.option.setNumber("Mesh.MeshSizeMax", stl_size * mm)
             gmsh.model.mesh.generate(2)
         with _quiet_stdout():
             gmsh.write(str(path))

@@ -27,24 +27,25 @@ def _pyplot() -> Any:
 def plot_curves(result: FEResult, path: Path) -> None:
     """Pressure against curvature·d, chamber volume ratio and peak stretch (PNG)."""
     plt = _pyplot()
-    r = result.response
-    p = r.path
-    mu = r.shear_modulus
+    response = result.response
+    path = response.path
+    mu = response.shear_modulus
     fig, axes = plt.subplots(1, 3, figsize=(12, 3.8), constrained_layout=True)
-    xs = [(p.curvature * r.length, "κ d (-)"), (p.extra["volume_ratio"], "V / V0 (-)"),
-          (p.peak_stretch, "peak principal stretch (-)")]
+    xs = [(path.curvature * response.length, "κ d (-)"), (path.extra["volume_ratio"], "V / V0 (-)"),
+          (path.peak_stretch, "peak principal stretch (-)")]
     for ax, (x, label) in zip(axes, xs, strict=True):
-        ax.plot(x, p.pressure / mu, "-", color="0.6", lw=1, label="path")
-        st = p.stable
-        ax.plot(np.where(st, x, np.nan), np.where(st, p.pressure / mu, np.nan), "o-", ms=2.5,
+        load = path.pressure / mu
+        ax.plot(x, load, "-", color="0.6", lw=1, label="path")
+        stable = path.stable
+        ax.plot(np.where(stable, x, np.nan), np.where(stable, load, np.nan), "o-", ms=2.5,
                 label="stable")
-        if (~st).any():
-            ax.plot(x[~st], p.pressure[~st] / mu, "x", color="C3", ms=4, label="unstable")
+        if (~stable).any():
+            ax.plot(x[~stable], load[~stable], "x", color="C3", ms=4, label="unstable")
         ax.set_xlabel(label)
         ax.set_ylabel("P / μ (-)")
         ax.grid(alpha=0.3)
-    c = r.characteristic
-    for val, name, ls in ((c.critical, "Pc", "--"), (c.hardening, "Ph", ":")):
+    marks = response.characteristic
+    for val, name, ls in ((marks.critical, "Pc", "--"), (marks.hardening, "Ph", ":")):
         if val is not None:
             for ax in axes:
                 ax.axhline(val / mu, color="k", ls=ls, lw=0.8)
@@ -58,8 +59,8 @@ def plot_curves(result: FEResult, path: Path) -> None:
 
 def plot_snapshots(result: FEResult, path: Path, count: int = 4) -> None:
     """Side views (y–z) of the deformed cell at a few path points, coloured by stretch."""
-    m = result.mesh
-    plot_hex_snapshots(m.points, m.cells, result.displacements, result.stretch,
+    mesh = result.mesh
+    plot_hex_snapshots(mesh.points, mesh.cells, result.displacements, result.stretch,
                        result.response.path.pressure, path, count=count)
 
 
@@ -132,13 +133,13 @@ def plot_path_panels(pressure: np.ndarray, stable: np.ndarray,
     fig, axes = plt.subplots(1, len(panels), figsize=(4 * len(panels), 3.8),
                              constrained_layout=True, squeeze=False)
     pk = np.asarray(pressure) / 1e3
-    st = np.asarray(stable, dtype=bool)
+    stable = np.asarray(stable, dtype=bool)
     for ax, (label, curves) in zip(axes[0], panels, strict=True):
         for k, (name, x) in enumerate(curves.items()):
             x = np.asarray(x, dtype=float)
             ax.plot(x, pk, "-", color=f"C{k}", lw=1, label=name)
-            if (~st).any():
-                ax.plot(x[~st], pk[~st], "x", color=f"C{k}", ms=4)
+            if (~stable).any():
+                ax.plot(x[~stable], pk[~stable], "x", color=f"C{k}", ms=4)
         for val, name in marks:
             ax.axhline(val / 1e3, color="k", ls="--", lw=0.7)
             ax.text(0.02, val / 1e3, f" {name}", va="bottom", fontsize=7,
@@ -148,7 +149,7 @@ def plot_path_panels(pressure: np.ndarray, stable: np.ndarray,
         ax.grid(alpha=0.3)
         if len(curves) > 1:
             ax.legend(fontsize=7)
-    fig.suptitle(title + ("  (x: unstable points)" if (~st).any() else ""), fontsize=10)
+    fig.suptitle(title + ("  (x: unstable points)" if (~stable).any() else ""), fontsize=10)
     fig.savefig(path, dpi=120)
     plt.close(fig)
 
@@ -163,11 +164,11 @@ def plot_device(result: FEDeviceResult, folder: Path | str) -> list[str]:
     marks = [(pc, f"Pc {name}") for name in paths
              if (pc := result.activation(name)[0]) is not None]
     panels = [("bend angle (°, module frame)",
-               {n: np.degrees(p.extra["bend_angle"]) for n, p in paths.items()}),
-              ("centroid stretch (-)", {n: p.axial_stretch for n, p in paths.items()}),
-              ("V / V0 (-)", {n: p.extra["volume_ratio"] for n, p in paths.items()}),
+               {n: np.degrees(path.extra["bend_angle"]) for n, path in paths.items()}),
+              ("centroid stretch (-)", {n: path.axial_stretch for n, path in paths.items()}),
+              ("V / V0 (-)", {n: path.extra["volume_ratio"] for n, path in paths.items()}),
               ("tip angle (°)", {"tip": np.degrees(result.tip_angle)})]
-    twisting = [m.name for m in result.mesh.modules if m.kind == "twisting"]
+    twisting = [mesh.name for mesh in result.mesh.modules if mesh.kind == "twisting"]
     if twisting:
         panels.insert(1, ("twist angle (°, about the axis)",
                           {n: np.degrees(paths[n].extra["twist_angle"]) for n in twisting}))
@@ -175,10 +176,10 @@ def plot_device(result: FEDeviceResult, folder: Path | str) -> list[str]:
         result.pressure, result.stable, panels,
         folder / "curves.png", marks=marks,
         title=f"FE device {result.device.name} ({result.stats.get('nfree', '?')} DOF)")
-    m = result.mesh
-    plot_hex_snapshots(m.points, m.cells, result.displacements, result.stretch,
+    mesh = result.mesh
+    plot_hex_snapshots(mesh.points, mesh.cells, result.displacements, result.stretch,
                        result.pressure, folder / "snapshots.png",
-                       title="side view (outer third of the half model)" if m.half
+                       title="side view (outer third of the half model)" if mesh.half
                        else "side view (the third of the model at the smallest x)")
     return ["curves.png", "snapshots.png"]
 
@@ -199,8 +200,8 @@ def plot_twist(result: FETwistResult, folder: Path | str) -> list[str]:
          ("peak principal stretch (-)", {"peak": p.peak_stretch})],
         folder / "curves.png", marks=marks,
         title=f"FE twisting module {result.module.name} ({result.stats.get('nfree', '?')} DOF)")
-    m = result.mesh
-    plot_hex_snapshots(m.points, m.cells, result.displacements, result.stretch,
+    mesh = result.mesh
+    plot_hex_snapshots(mesh.points, mesh.cells, result.displacements, result.stretch,
                        result.pressure, folder / "snapshots.png", view=(0, 2), slab=1,
                        slab_side="high", title="free-end third seen along the axis (x–z)")
     return ["curves.png", "snapshots.png"]
