@@ -132,9 +132,9 @@ def rom_batch_model(vectorised: bool = False) -> BatchModel:
     vectorised : bool
         ``True``: one vmapped, jitted trace per batch (``rom.solve_batch(vectorise=True)``,
         measures in one padded call). ``False`` (default): single-design traces in a loop.
-        On this 2-core CPU machine a derivative evaluation costs as much per design inside
-        a vmapped batch as alone, so the loop is as fast or faster (40 vs 29 curves/s,
-        ``benchmarks/bench_rom.py``, 2026-11-22); vectorise on a GPU. Both give the same
+        On a CPU a derivative evaluation costs as much per design inside a vmapped batch
+        as alone, so the loop is as fast or faster (``benchmarks/README.md``); vectorise on
+        a GPU. Both give the same
         responses. The loop traces each
         design as a batch of one with its path measures padded to the full path length, so
         it compiles once (``rom.solve_cell`` evaluates the measures on the path's own
