@@ -146,8 +146,8 @@ def fem(
             return
         title, lines = describe(outcome, info)
         console.print(f"[bold]{title}[/]{lines[0]}", highlight=False)
-        for line in lines[1:]:
-            console.print(line, highlight=False, soft_wrap=True)
+        for line in lines[1:]:  # table rows (indented) are not wrapped
+            console.print(line, highlight=False, soft_wrap=line.startswith("  "))
         console.print(f"files in {folder}/")
 
 

@@ -28,15 +28,16 @@ def plot_curves(result: FEResult, path: Path) -> None:
     """Pressure against curvature·d, chamber volume ratio and peak stretch (PNG)."""
     plt = _pyplot()
     response = result.response
-    path = response.path
+    curve = response.path
     mu = response.shear_modulus
     fig, axes = plt.subplots(1, 3, figsize=(12, 3.8), constrained_layout=True)
-    xs = [(path.curvature * response.length, "κ d (-)"), (path.extra["volume_ratio"], "V / V0 (-)"),
-          (path.peak_stretch, "peak principal stretch (-)")]
+    xs = [(curve.curvature * response.length, "κ d (-)"),
+          (curve.extra["volume_ratio"], "V / V0 (-)"),
+          (curve.peak_stretch, "peak principal stretch (-)")]
     for ax, (x, label) in zip(axes, xs, strict=True):
-        load = path.pressure / mu
+        load = curve.pressure / mu
         ax.plot(x, load, "-", color="0.6", lw=1, label="path")
-        stable = path.stable
+        stable = curve.stable
         ax.plot(np.where(stable, x, np.nan), np.where(stable, load, np.nan), "o-", ms=2.5,
                 label="stable")
         if (~stable).any():
@@ -160,7 +161,7 @@ def plot_device(result: FEDeviceResult, folder: Path | str) -> list[str]:
     ``snapshots.png`` (side views of the deformed device, coloured by stretch) in
     ``folder``; returns the file names."""
     folder = Path(folder)
-    paths = {name: r.path for name, r in result.responses.items()}
+    paths = {name: response.path for name, response in result.responses.items()}
     marks = [(pc, f"Pc {name}") for name in paths
              if (pc := result.activation(name)[0]) is not None]
     panels = [("bend angle (°, module frame)",
@@ -168,7 +169,7 @@ def plot_device(result: FEDeviceResult, folder: Path | str) -> list[str]:
               ("centroid stretch (-)", {n: path.axial_stretch for n, path in paths.items()}),
               ("V / V0 (-)", {n: path.extra["volume_ratio"] for n, path in paths.items()}),
               ("tip angle (°)", {"tip": np.degrees(result.tip_angle)})]
-    twisting = [mesh.name for mesh in result.mesh.modules if mesh.kind == "twisting"]
+    twisting = [module.name for module in result.mesh.modules if module.kind == "twisting"]
     if twisting:
         panels.insert(1, ("twist angle (°, about the axis)",
                           {n: np.degrees(paths[n].extra["twist_angle"]) for n in twisting}))
@@ -189,15 +190,15 @@ def plot_twist(result: FETwistResult, folder: Path | str) -> list[str]:
     Pc and Ph marked) and ``snapshots.png`` (the free end third seen along the axis,
     coloured by stretch) in ``folder``; returns the file names."""
     folder = Path(folder)
-    p = result.response.path
+    curve = result.response.path
     pc, ph = result.activation()
     marks = [(v, k) for v, k in ((pc, "Pc"), (ph, "Ph")) if v is not None]
     plot_path_panels(
-        result.pressure, p.stable,
+        result.pressure, curve.stable,
         [("twist angle (°, right-handed about +y)", {"twist": np.degrees(result.twist_angle)}),
-         ("axial stretch (-)", {"stretch": p.axial_stretch}),
-         ("V / V0 (-)", {"V/V0": p.extra["volume_ratio"]}),
-         ("peak principal stretch (-)", {"peak": p.peak_stretch})],
+         ("axial stretch (-)", {"stretch": curve.axial_stretch}),
+         ("V / V0 (-)", {"V/V0": curve.extra["volume_ratio"]}),
+         ("peak principal stretch (-)", {"peak": curve.peak_stretch})],
         folder / "curves.png", marks=marks,
         title=f"FE twisting module {result.module.name} ({result.stats.get('nfree', '?')} DOF)")
     mesh = result.mesh
