@@ -17,8 +17,10 @@ from multimorph.fe.analyses._cell import (
 )
 from multimorph.fe.analyses._compare import (
     Comparison,
+    RomComparison,
     ShearComparison,
     compare_cell,
+    compare_cell_run,
     compare_device,
     compare_responses,
     compare_shear,
@@ -26,7 +28,7 @@ from multimorph.fe.analyses._compare import (
     compare_twisting,
 )
 from multimorph.fe.analyses._device import DeviceMeasure, FEDeviceResult, simulate_device
-from multimorph.fe.analyses._job import FEJob, FEOutcome, run_job
+from multimorph.fe.analyses._job import JOB_KINDS, FEJob, FEOutcome, run_job
 from multimorph.fe.analyses._measure import (
     StripStrain,
     bend_and_twist,
@@ -69,6 +71,7 @@ from multimorph.fe.analyses._twist import (
 )
 
 __all__ = [
+    "JOB_KINDS",
     "STRIP_KEYS",
     "CellMeasure",
     "Comparison",
@@ -84,6 +87,7 @@ __all__ = [
     "PathRecord",
     "PathRecorder",
     "Progress",
+    "RomComparison",
     "ShearComparison",
     "StopRules",
     "StripStrain",
@@ -96,6 +100,7 @@ __all__ = [
     "clamped_strip",
     "clamped_strip_exact",
     "compare_cell",
+    "compare_cell_run",
     "compare_device",
     "compare_responses",
     "compare_shear",

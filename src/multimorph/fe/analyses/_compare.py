@@ -13,7 +13,7 @@ import numpy as np
 
 from multimorph.device import Module, module_strains
 from multimorph.errors import MultimorphError, SpecError
-from multimorph.fe.analyses._cell import simulate_cell
+from multimorph.fe.analyses._cell import FEResult, simulate_cell
 from multimorph.fe.analyses._device import FEDeviceResult
 from multimorph.fe.analyses._run import activation
 from multimorph.fe.analyses._twist import FETwistResult, tilt_sense
@@ -21,8 +21,9 @@ from multimorph.fe.engine import FESettings
 from multimorph.geometry import CellGeometry
 from multimorph.response import Response
 
-__all__ = ["Comparison", "ShearComparison", "compare_cell", "compare_device",
-           "compare_responses", "compare_shear", "compare_shear_responses", "compare_twisting"]
+__all__ = ["Comparison", "RomComparison", "ShearComparison", "compare_cell",
+           "compare_cell_run", "compare_device", "compare_responses", "compare_shear",
+           "compare_shear_responses", "compare_twisting"]
 
 
 def _rel(a: float | None, b: float | None) -> float | None:
@@ -228,6 +229,16 @@ def compare_shear_responses(rom: Response, fe: Response, geometry: CellGeometry,
     return ShearComparison(tilt, P, g_rom, g_fe, a_rom, a_fe, ratio, rel)
 
 
+def compare_cell_run(rom: Response, fe: FEResult) -> Comparison | ShearComparison:
+    """ROM vs FE of one cell run: a tilted strip's shear (:func:`compare_shear_responses`),
+    else Pc, Ph and κ(P) (:func:`compare_responses`); ``rom`` is the straight cell's
+    reduced-model response."""
+    tilt = fe.mesh.tilt
+    if tilt:
+        return compare_shear_responses(rom, fe.response, fe.mesh.geometry, tilt)
+    return compare_responses(rom, fe.response)
+
+
 def compare_shear(geometry: CellGeometry, tilt: float, p_max: float, fe_settings: Any = None,
                   n_cells: int = 2) -> ShearComparison:
     """Run the ROM on the straight cell and FE on a strip of ``n_cells`` tilted cells.
@@ -259,6 +270,11 @@ def compare_shear(geometry: CellGeometry, tilt: float, p_max: float, fe_settings
     return replace(c, meta={"rom_time": t_rom, "fe_time": t_fe, "fe_dof": fe.stats["nfree"],
                             "n_cells": n_cells,
                             "fe_status": fe.stats["stop_reason"] or fe.stats["status"]})
+
+
+#: what a comparison with the reduced model returns: of a cell run, of a device or twisting
+#: module (a dict)
+RomComparison = Comparison | ShearComparison | dict[str, Any]
 
 
 def compare_device(fe: FEDeviceResult, rom: Any = None, *, rom_p_max: float | None = None,

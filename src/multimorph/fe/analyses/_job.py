@@ -11,17 +11,14 @@ device runs as a one-module device and one twisting module as its strips around 
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Any
 
 from multimorph.device import Device, Module
 from multimorph.errors import SpecError
 from multimorph.fe.analyses._cell import FEResult, simulate_cell
 from multimorph.fe.analyses._compare import (
-    Comparison,
-    ShearComparison,
+    RomComparison,
+    compare_cell_run,
     compare_device,
-    compare_responses,
-    compare_shear_responses,
     compare_twisting,
 )
 from multimorph.fe.analyses._device import FEDeviceResult, simulate_device
@@ -31,7 +28,10 @@ from multimorph.fe.engine import FESettings, PathCheckpoint
 from multimorph.fe.mesh import FE_MODULE_KINDS, fe_device_branches
 from multimorph.geometry import CellGeometry
 
-__all__ = ["FEJob", "FEOutcome", "run_job"]
+__all__ = ["JOB_KINDS", "FEJob", "FEOutcome", "run_job"]
+
+#: the routes of one FE run
+JOB_KINDS = ("cell", "device", "twisting")
 
 
 @dataclass(frozen=True, eq=False)
@@ -71,6 +71,10 @@ class FEJob:
     n_cells: int = 1
     tilt: float = 0.0
     compare: bool = False
+
+    def __post_init__(self) -> None:
+        if self.kind not in JOB_KINDS:
+            raise SpecError(f"kind: expected one of {', '.join(JOB_KINDS)}, got {self.kind!r}")
 
     @classmethod
     def for_cell(cls, geometry: CellGeometry, settings: FESettings, *, n_cells: int = 1,
@@ -115,30 +119,27 @@ class FEJob:
 @dataclass(frozen=True, eq=False)
 class FEOutcome:
     """A finished FE run: the job, its result and the comparison with the reduced model
-    (a :class:`Comparison` or :class:`ShearComparison` of a cell, the dict of
-    :func:`compare_device` or :func:`compare_twisting`; ``None`` when not asked for)."""
+    (a ``Comparison`` or ``ShearComparison`` of a cell, the dict of :func:`compare_device`
+    or :func:`compare_twisting`; ``None`` when not asked for)."""
 
     job: FEJob
     result: FEResult | FEDeviceResult | FETwistResult
-    comparison: Comparison | ShearComparison | dict[str, Any] | None = None
+    comparison: RomComparison | None = None
 
 
 def run_job(job: FEJob, *, progress: Progress | None = None,
             checkpoint: PathCheckpoint | None = None) -> FEOutcome:
     """Run an FE job and, with ``job.compare``, the reduced model beside it (``progress``
     and ``checkpoint`` as for :func:`~multimorph.fe.simulate_cell`)."""
-    comparison: Comparison | ShearComparison | dict[str, Any] | None = None
     if job.kind == "cell":
         assert job.geometry is not None
         cell = simulate_cell(job.geometry, job.settings, progress=progress,
                              n_cells=job.n_cells, tilt=job.tilt, checkpoint=checkpoint)
-        if job.compare:
-            from multimorph.rom import simulate_cell as rom_simulate
+        if not job.compare:
+            return FEOutcome(job, cell)
+        from multimorph.rom import simulate_cell as rom_simulate
 
-            rom = rom_simulate(job.geometry, job.p_end)
-            comparison = (compare_shear_responses(rom, cell.response, job.geometry, job.tilt)
-                          if job.tilt else compare_responses(rom, cell.response))
-        return FEOutcome(job, cell, comparison)
+        return FEOutcome(job, cell, compare_cell_run(rom_simulate(job.geometry, job.p_end), cell))
     if job.kind == "device":
         assert job.device is not None
         device = simulate_device(job.device, job.settings, progress=progress,
