@@ -126,9 +126,7 @@ def fem(
                    "wall_elements": wall_elements, "pmax": pmax,
                    "method": method, "solver": solver, "full": full, "cells": cells,
                    "tilt": tilt, "module": module}
-        job = _job(spec, table, mesh=mesh, element_size=element_size,
-                   wall_elements=wall_elements, pmax=pmax, method=method, solver=solver,
-                   full=full, cells=cells, tilt=tilt, module=module, compare=compare)
+        job = _job(spec, table, compare=compare, **options)
         suffix = f"-{module}" if job.kind == "twisting" else ""
         folder = out if out is not None else Path("multimorph-out") / f"fem-{spec.stem}{suffix}"
         checkpoint = PathCheckpoint.beside(folder, spec.read_bytes(), options)
@@ -222,8 +220,6 @@ def _density(mesh: str, size: float | None, wall_elements: int | None) -> Any:
         raise SpecError(f"--wall-elements: expected at least 1 element through each wall, "
                         f"got {wall_elements}")
     return replace(density, wall_elements=int(wall_elements))
-
-
 
 
 def register(app: typer.Typer) -> None:
