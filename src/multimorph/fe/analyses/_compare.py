@@ -293,7 +293,8 @@ def compare_device(fe: FEDeviceResult, rom: Any = None, *, rom_p_max: float | No
         ``rom_p_max``.
     rom_p_max : float, optional
         Highest pressure of the reduced model (Pa); default twice the pressure FE was asked
-        to reach (the reduced model is stiffer than FE, docs/fe.md "ROM vs FE", and is cheap).
+        to reach (the reduced model is stiffer than FE, docs/fe-formulation.md §6, and is
+        cheap).
 
     Returns
     -------
