@@ -21,7 +21,7 @@ import itertools
 import time
 
 from multimorph.fe import FESettings, simulate_cell
-from multimorph.fe._linsolve import pardiso_available
+from multimorph.fe.engine import pardiso_available
 from multimorph.geometry import CellGeometry
 from multimorph.materials import Material
 

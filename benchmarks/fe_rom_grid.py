@@ -1,4 +1,4 @@
-"""ROM vs FE over a grid of cell designs: Pc, Ph and κ(P) (documented in docs/fe.md).
+"""ROM vs FE over a grid of cell designs: Pc, Ph and κ(P) (figures in benchmarks/README.md).
 
 The grid varies the three ratios of the paper's Buckingham analysis around our reference
 cell (d = 20 mm, w = 10 mm, h = 8 mm; Gent walls μ = 100 kPa, Jm = 30; bottom 10 μ):
@@ -30,8 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from multimorph.fe import FESettings, simulate_cell
-from multimorph.fe._compare import compare_responses
+from multimorph.fe import FESettings, compare_responses, simulate_cell
 from multimorph.geometry import CellGeometry
 from multimorph.materials import Material
 

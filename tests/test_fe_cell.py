@@ -11,6 +11,7 @@ import pytest
 pytest.importorskip("felupe")
 pytest.importorskip("contique")
 
+from multimorph.errors import SpecError
 from multimorph.fe import FESettings, MeshDensity, simulate_cell
 from multimorph.geometry import CellGeometry
 from multimorph.materials import Material
@@ -142,7 +143,7 @@ def test_repeated_contique_evaluations_are_handed_out_again_unchanged(monkeypatc
     pre-identification's result is discarded); handing the kept residuals, states and
     solves out again must give the bit-identical path with fewer residual evaluations."""
     from multimorph.fe import PressureProblem
-    from multimorph.fe._solve import _Bordered
+    from multimorph.fe.engine._solve import _Bordered
 
     calls = {"n": 0}
     residual = PressureProblem.residual
@@ -279,7 +280,7 @@ def test_ctrl_c_inside_a_linear_solve_stops_continuation(monkeypatch: pytest.Mon
     """contique wraps the linear solve in a bare ``except:`` (and iterates on NaN), which
     would swallow Ctrl-C; a KeyboardInterrupt raised inside a solve during continuation
     stops the run at once instead (no further solve)."""
-    from multimorph.fe._linsolve import LinearSolver
+    from multimorph.fe import LinearSolver
 
     calls = {"n": 0, "after": 0}
     real = LinearSolver.solve
@@ -304,7 +305,7 @@ def test_path_end_rules() -> None:
     """Where a path stops: past a limit point (with ``stop_after_limit``), at p_max on a
     rising continuation point, and when continuation comes back through P = 0 (it retraced
     the path: seen on a device whose two equal chambers passed their limit point)."""
-    from multimorph.fe._cell import path_end
+    from multimorph.fe.engine import path_end
 
     rising = [0.0, 1.0, 2.0, 3.0]
     assert path_end(rising, "pressure", 10.0, True) == ""
@@ -322,7 +323,7 @@ def test_retraced_paths_are_told_from_folds() -> None:
     """A path that turns round and walks back over its own states (sampled at other
     points) is retraced; a path through a fold (the pressure falls but the state goes on
     changing) and a path that only comes back to the same pressures elsewhere are not."""
-    from multimorph.fe._cell import retraced
+    from multimorph.fe.engine import retraced
 
     s = np.linspace(0.0, 1.0, 12)
     curve = np.column_stack([s, np.sin(2.0 * s), s**2])   # states along a smooth curve
@@ -352,9 +353,8 @@ def test_a_path_that_turns_round_restarts_from_its_turning_point(
     the turning point; the path goes on from there. The continuation here is scripted (a
     curve in a 3-component state), so only the bookkeeping is tested; docs/fe.md has the
     FE device this was built for."""
-    from multimorph.fe import _cell
-    from multimorph.fe._checkpoint import PathCheckpoint
-    from multimorph.fe._solve import PathPoint, PathRun
+    from multimorph.fe import PathCheckpoint, PathPoint, PathRun
+    from multimorph.fe.engine import _path, trace_path
 
     def curve(t: float) -> tuple[np.ndarray, float]:
         return np.array([t, np.sin(2.0 * t), t * t]), 3.0 * t - t * t
@@ -391,7 +391,7 @@ def test_a_path_that_turns_round_restarts_from_its_turning_point(
         run.status = "max_steps"
         return run
 
-    monkeypatch.setattr(_cell, "continuation", scripted)
+    monkeypatch.setattr(_path, "continuation", scripted)
 
     class Recorder:
         def __init__(self) -> None:
@@ -406,10 +406,14 @@ def test_a_path_that_turns_round_restarts_from_its_turning_point(
             self.cell_stretch.append(0)
             return False
 
+        def truncate(self, n: int) -> None:  # keep the start and the first n points
+            for kept in (self.rows, self.u, self.cell_stretch):
+                del kept[n + 1:]
+
     rec = Recorder()
     ck = PathCheckpoint(tmp_path / "ck", "k")
-    run = _cell.trace_path(Problem(), None, FESettings(method="arc-length"), 10.0, rec.add,
-                           checkpoint=ck, truncate=lambda n: _cell.drop_points(rec, n))
+    run = trace_path(Problem(), None, FESettings(method="arc-length"), 10.0, rec.add,
+                     checkpoint=ck, truncate=rec.truncate)
     assert run.restarts == 2 and len(starts) == 3
     x9, p9 = curve(0.9)
     x10, p10 = curve(1.0)
@@ -427,3 +431,25 @@ def test_a_path_that_turns_round_restarts_from_its_turning_point(
     assert len(rec.rows) == len(rec.u) == len(rec.cell_stretch) == len(run.points) + 1
     kept = ck.load(3)
     assert [p.pressure for p in kept] == [p.pressure for p in run.points]
+
+
+def test_an_end_plate_moves_the_end_face_rigidly_and_bends_the_cell() -> None:
+    """``end="plate"`` ties the free end face to a rigid plate (penalty constraint): the face's
+    nodes keep their mutual distances (to the penalty's 10⁻³) while the cell bends, and the
+    plate's two nodes sit after the mesh's own."""
+    from multimorph.io import load_toml
+
+    g = CellGeometry.from_spec(load_toml(Path(__file__).parents[1] / "examples" / "cell.toml")
+                               ["cell"])
+    r = simulate_cell(g, FESettings(mesh="coarse", p_max=0.3 * g.mu), end="plate")
+    mesh, path = r.mesh, r.response.path
+    assert mesh.plate == (len(mesh.points) - 2, len(mesh.points) - 1)
+    face = mesh.points[mesh.end_face]
+    moved = face + r.displacements[-1][mesh.end_face]
+    d0 = np.linalg.norm(face[:, None] - face[None], axis=-1)
+    d1 = np.linalg.norm(moved[:, None] - moved[None], axis=-1)
+    assert np.abs(d1 - d0).max() < 1e-3 * d0.max()
+    assert path.curvature[-1] * g.length > 0.3          # it bends (κd ≈ 0.58 here)
+    assert r.stats["end"] == "plate"
+    with pytest.raises(SpecError, match="end: expected one of free, plate"):
+        simulate_cell(g, FESettings(mesh="coarse", p_max=0.3 * g.mu), end="glued")

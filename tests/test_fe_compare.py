@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from multimorph.fe._compare import compare_responses
+from multimorph.fe import compare_responses
 from multimorph.response import EquilibriumPath, build_response
 
 

@@ -31,7 +31,7 @@ from multimorph.fe import (
     simulate_cell,
     simulate_device,
 )
-from multimorph.fe._mesh import BOTTOM
+from multimorph.fe.mesh import BOTTOM
 from multimorph.geometry import CellGeometry
 from multimorph.materials import Material
 
@@ -601,7 +601,7 @@ def test_cli_fem_device_with_a_twisting_module(tmp_path: Path,
     assert not (out / "device.step").exists() and (out / "curves.png").exists()
     # device.stl: the undeformed mesh's closed surface (every edge in two triangles), whose
     # enclosed volume (divergence theorem over the triangles) is the mesh's
-    from multimorph.fe._output import hex_boundary
+    from multimorph.fe.mesh import hex_boundary
 
     v = np.array([[float(t) for t in line.split()[1:4]]
                   for line in (out / "device.stl").read_text().splitlines()

@@ -8,7 +8,7 @@ import pytest
 import scipy.sparse as sp
 
 from multimorph.fe import NonFiniteSystemError, make_solver
-from multimorph.fe._linsolve import pardiso_available
+from multimorph.fe.engine import pardiso_available
 
 
 def _laplacian(n: int, shift: float) -> sp.csr_matrix:

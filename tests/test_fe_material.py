@@ -8,7 +8,7 @@ import pytest
 pytest.importorskip("felupe")
 pytest.importorskip("tensortrax")
 
-from multimorph.fe._material import felupe_umat
+from multimorph.fe.engine import felupe_umat
 from multimorph.materials import Material, nominal_stress
 
 MATERIALS = [
@@ -65,7 +65,7 @@ def test_analytic_invariant_tangent_equals_the_tensor_route(material: Material) 
     non-symmetric) F."""
     import felupe as fem
 
-    from multimorph.fe._material import TENSORTRAX_MATH, InvariantHyperelastic
+    from multimorph.fe.engine import TENSORTRAX_MATH, InvariantHyperelastic
 
     u = felupe_umat(material)
     assert isinstance(u, InvariantHyperelastic)
@@ -83,6 +83,6 @@ def test_analytic_invariant_tangent_equals_the_tensor_route(material: Material) 
 
 
 def test_principal_stretch_laws_keep_the_tensor_route() -> None:
-    from multimorph.fe._material import InvariantHyperelastic
+    from multimorph.fe.engine import InvariantHyperelastic
 
     assert not isinstance(felupe_umat(MATERIALS[-1]), InvariantHyperelastic)

@@ -73,7 +73,7 @@ def test_largest_stretch_matches_an_eigen_solver_including_repeated_eigenvalues(
     """The closed-form largest principal stretch equals sqrt(max eig(FᵀF)) for random F, the
     identity, uniaxial stretch (two equal smallest eigenvalues) and equibiaxial stretch
     (two equal largest: the numerically worst case of the trigonometric formula)."""
-    from multimorph.fe._measure import largest_stretch
+    from multimorph.fe.analyses import largest_stretch
 
     rng = np.random.default_rng(3)
     F = np.eye(3)[:, :, None, None] + 0.4 * rng.standard_normal((3, 3, 4, 500))
@@ -92,7 +92,7 @@ def test_largest_stretch_matches_an_eigen_solver_including_repeated_eigenvalues(
 def test_peak_element_over_all_and_over_a_subset() -> None:
     """The element of the largest stretch, over all elements and over a subset (a device
     module's), is the brute-force one."""
-    from multimorph.fe._measure import peak_element
+    from multimorph.fe.analyses import peak_element
 
     ev = np.random.default_rng(3).uniform(1.0, 2.0, size=(8, 50))
     assert peak_element(ev) == int(np.argmax(ev.max(axis=0)))

@@ -11,9 +11,7 @@ pytest.importorskip("felupe")
 pytest.importorskip("contique")
 
 from multimorph.errors import SpecError
-from multimorph.fe import FESettings, simulate_cell
-from multimorph.fe._measure import chamber_volume
-from multimorph.fe._mesh import cell_mesh
+from multimorph.fe import FESettings, cell_mesh, chamber_volume, simulate_cell
 from multimorph.geometry import CellGeometry
 from multimorph.materials import Material
 

@@ -8,7 +8,7 @@ import pytest
 pytest.importorskip("felupe")
 pytest.importorskip("contique")
 
-from multimorph.fe._oracles import (
+from multimorph.fe.analyses import (
     clamped_strip,
     clamped_strip_exact,
     thick_sphere,

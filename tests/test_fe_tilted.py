@@ -17,8 +17,7 @@ import pytest
 pytest.importorskip("felupe")
 
 from multimorph.errors import SpecError
-from multimorph.fe._measure import chamber_volume, strip_strain
-from multimorph.fe._mesh import CellMesh, MeshDensity, cell_mesh
+from multimorph.fe import CellMesh, MeshDensity, cell_mesh, chamber_volume, strip_strain
 from multimorph.geometry import CellGeometry
 from multimorph.materials.library import get_material
 
@@ -176,8 +175,7 @@ def test_fe_shear_against_the_rom_twisting_kinematics() -> None:
     FE/ROM 3.1 at 0.05 μ, 2.4 at 0.1 μ; docs/fe.md): the FE cell is softer than the ROM's
     (its side walls lean out, Pc about half the ROM's, see "ROM vs FE") and the tilted
     chamber's side walls, pushed apart, add shear that the ROM's uniaxial kinematics lacks."""
-    from multimorph.fe import FESettings
-    from multimorph.fe._compare import compare_shear
+    from multimorph.fe import FESettings, compare_shear
 
     g = _twist_cell()
     c = compare_shear(g, BETA, 0.1 * g.mu, FESettings(mesh=TINY), n_cells=2)

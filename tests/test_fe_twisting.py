@@ -31,8 +31,7 @@ from multimorph.fe import (
     simulate_twisting_module,
     twisting_module_mesh,
 )
-from multimorph.fe._mesh import _HEX_FACES, BOTTOM, WALL
-from multimorph.fe._twist_mesh import SHAFT
+from multimorph.fe.mesh import BOTTOM, HEX_FACES, SHAFT, WALL
 from multimorph.geometry import CellGeometry
 from multimorph.materials import Material
 
@@ -90,7 +89,7 @@ def test_mesh_is_valid_conforming_and_keeps_volume(tilt: float, strips: int, rad
     det = _gauss_jacobians(m.points, m.cells)
     assert det.min() > 0
     assert len(cKDTree(m.points).query_pairs(1e-7 * g.length)) == 0
-    faces = np.sort(m.cells[:, _HEX_FACES].reshape(-1, 4), axis=1)
+    faces = np.sort(m.cells[:, HEX_FACES].reshape(-1, 4), axis=1)
     uniq, counts = np.unique(faces, axis=0, return_counts=True)
     assert counts.max() == 2
     # no open face on the glued interface: an open face with all nodes on a polygon face

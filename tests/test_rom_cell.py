@@ -277,7 +277,7 @@ def test_side_lean_is_a_softer_mode(reference):
     """At the default model's equilibria (ψ held at 0) the pressure pulls the side walls
     outward: ∂Π/∂ψ < 0 there, growing with pressure, while the other components of the
     gradient vanish (the same energy with ψ = 0 is the default model). 3D FE: the side walls
-    lean out by about the top wall's half-chord at Pc (docs/fe.md)."""
+    lean out by about the top wall's half-chord at Pc (docs/fe-formulation.md §6)."""
     import jax
     import jax.numpy as jnp
 

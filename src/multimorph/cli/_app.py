@@ -21,24 +21,17 @@ def _register() -> None:
     # one line per command module; each module defines ``register(app)``; once per process
     if app.registered_commands:
         return
-    from multimorph.cli import _material
+    from multimorph.cli._cell import register as cell
+    from multimorph.cli._demo import register as demo
+    from multimorph.cli._design import register as design
+    from multimorph.cli._fem import register as fem
+    from multimorph.cli._material import register as material
+    from multimorph.cli._plot import register as plot
+    from multimorph.cli._simulate import register as simulate
+    from multimorph.cli._sweep import register as sweep
 
-    _material.register(app)
-    from multimorph.cli import _demo
-
-    _demo.register(app)
-    from multimorph.cli import _sweep
-
-    _sweep.register(app)
-    from multimorph.cli import _plot
-
-    _plot.register(app)
-    from multimorph.cli import _simulate
-
-    _simulate.register(app)
-    from multimorph.cli import _fem; _fem.register(app)  # noqa: E702, I001
-    from multimorph.cli import _design; _design.register(app)  # noqa: E702, I001
-    from multimorph.cli import _cell; _cell.register(app)  # noqa: E702, I001
+    for register in (material, demo, sweep, plot, simulate, fem, design, cell):
+        register(app)
 
 
 def run(argv: Sequence[str] | None = None) -> int:

@@ -66,28 +66,18 @@ def design_command(
 
     Example: multimorph design examples/target_gripper.toml --seed 1 --out out/gripper
     """
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
+
     from multimorph.design import (
-        CountingModel,
         DesignSettings,
-        design,
-        graded_target,
         rom_batch_model,
-        single_cell,
+        run_design,
         target_from_spec,
-    )
-    from multimorph.design import robustness as mc
-    from multimorph.design._report import (
-        convergence_figure,
-        device_toml,
-        report_dict,
-        report_markdown,
-        robustness_figure,
-        sequence_figure,
+        write_design_report,
     )
     from multimorph.design._verify import fe_available
-    from multimorph.design._verify import verify_fe as run_fe_check
     from multimorph.errors import MultimorphError, SpecError
-    from multimorph.io import atomic_output_dir, claim_output, load_toml, write_json
+    from multimorph.io import atomic_output_dir, claim_output, load_toml
     from multimorph.units import to_si
 
     with handle_errors(as_json), ExitStack() as hold:
@@ -108,9 +98,6 @@ def design_command(
         settings = DesignSettings(budget=budget, population=population, seed=seed,
                                   robust_samples=(16 if robust else 0), wall_tolerance=tol,
                                   default_cv=default_cv, gradient=gradient, graded=graded)
-        searched = graded_target(spec, settings.graded_ratio) if graded else spec
-        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
-
         with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
                       console=err_console, transient=True, disable=as_json) as bar:
             task = bar.add_task("designing", total=budget)
@@ -118,59 +105,23 @@ def design_command(
             def progress(done: int, total: int, phase: str) -> None:
                 bar.update(task, completed=min(done, total), description=f"search: {phase}")
 
-            # one model, one batch shape for search, Monte Carlo and the final simulation
-            model = CountingModel(rom_batch_model(vectorised),
-                                  pad_to=population * len(searched.stages))
-            result = design(spec, model=model, settings=settings, progress=progress)
-            spec = result.target            # the searched stages (graded parts included)
-            rob = None
-            if result.best is not None and result.feasible and robustness > 0:
-                bar.update(task, description="robustness (Monte Carlo)")
-                rob = mc(spec, result.best, n_samples=robustness, seed=seed, model=model,
-                         wall_tolerance=tol, default_cv=default_cv)
-        sequence: dict[str, Any] | None = None
-        sim_error: str | None = None
-        dev_result = None
-        best = result.best
-        if best is not None and best.device is not None:
-            from multimorph.device import simulate_device
-
-            try:
-                dev_result = simulate_device(best.device, cell_model=single_cell(model))
-                sequence = dev_result.sequence.to_dict()
-            except MultimorphError as exc:  # the search result stays; the report says why
-                sim_error = f"device simulation of the best design failed: {exc}"
-                err_console.print(f"[yellow]warning:[/] {sim_error}")
-        verification = None
-        if verify_fe and best is not None and result.feasible:
-            with console.status("FE verification of the best design…", spinner="dots"):
-                verification = run_fe_check(spec, best)
+            run = run_design(spec, settings, model=rom_batch_model(vectorised),
+                             robustness_samples=robustness, check_fe=verify_fe,
+                             progress=progress,
+                             stage=lambda text: bar.update(task, description=text))
+        if run.simulation_error is not None:
+            err_console.print(f"[yellow]warning:[/] {run.simulation_error}")
+        result = run.result
         folder = out if out is not None else Path("multimorph-out") / f"design-{target.stem}"
-        report = report_dict(result, rob, sequence, verification, simulation_error=sim_error)
-        files = ["report.json", "report.md", "convergence.png"]
+        header = (f"designed by 'multimorph design {target.name} --seed {seed} "
+                  f"--budget {budget}'" + ("" if result.feasible else
+                                           "\nINFEASIBLE target: closest design only"))
         with atomic_output_dir(folder) as tmp:
-            if best is not None and best.device is not None:
-                name = "device.toml" if result.feasible else "closest_device.toml"
-                header = (f"designed by 'multimorph design {target.name} --seed {seed} "
-                          f"--budget {budget}'" + ("" if result.feasible else
-                                                   "\nINFEASIBLE target: closest design only"))
-                (tmp / name).write_text(device_toml(best.device, header=header))
-                files.append(name)
-            if dev_result is not None:
-                sequence_figure(dev_result, spec).savefig(tmp / "sequence.png", dpi=120)
-                files.append("sequence.png")
-            if rob is not None:
-                robustness_figure(rob, spec).savefig(tmp / "robustness.png", dpi=110)
-                files.append("robustness.png")
-            convergence_figure(result).savefig(tmp / "convergence.png", dpi=110)
-            report["files"] = files
-            write_json(tmp / "report.json", report)
-            (tmp / "report.md").write_text(report_markdown(
-                result, rob, sequence, verification, simulation_error=sim_error))
+            report = write_design_report(run, tmp, header=header)
         if as_json:
             emit_json({**report, "out": str(folder)})
         else:
-            _print_summary(result, rob, folder, files)
+            _print_summary(result, run.robustness, folder, report["files"])
         if not result.feasible:
             raise typer.Exit(EXIT_INFEASIBLE)
 
@@ -187,28 +138,28 @@ def _print_summary(result: Any, rob: Any, folder: Path, files: list[str]) -> Non
         for e in result.explanation:
             console.print(f"  - {e}", highlight=False)
     best = result.best
-    for name, g in result.graded_stages().items():
-        pr = g.get("predicted")
+    for name, graded in result.graded_stages().items():
+        pr = graded.get("predicted")
         if pr is None:
             continue
-        kind = next(s.kind for s in t.stages if s.name == g["parts"][0])
-        m = pr["magnitude"]
-        mag = ("—" if m is None else f"{m * 100:.3g} %" if kind == "stretch"
-               else f"{math.degrees(m):.3g} deg")
-        w = g["wanted"]
-        console.print(f"  {name}: graded ({' + '.join(g['parts'])}): starts "
+        kind = next(stage.kind for stage in t.stages if stage.name == graded["parts"][0])
+        magnitude = pr["magnitude"]
+        mag = ("—" if magnitude is None else f"{magnitude * 100:.3g} %" if kind == "stretch"
+               else f"{math.degrees(magnitude):.3g} deg")
+        w = graded["wanted"]
+        console.print(f"  {name}: graded ({' + '.join(graded['parts'])}): starts "
                       f"{_kpa(pr['start_pressure'])} (wanted {_kpa(w['start_pressure'])}), "
                       f"completes {_kpa(pr['end_pressure'])} (wanted {_kpa(w['end_pressure'])}),"
                       f" {mag}: {'met' if pr['met'] else 'not met'}", highlight=False)
     if best is not None:
-        for st, sr in zip(t.stages, best.stages, strict=True):
-            mag = (f"{sr.magnitude * 100:.3g} %" if st.kind == "stretch"
-                   else f"{math.degrees(sr.magnitude):.3g} deg")
-            pc = "—" if sr.start is None else f"{sr.start / 1e3:.4g}"
-            ph = "—" if sr.end is None else f"{sr.end / 1e3:.4g}"
-            console.print(f"  {st.name:<12} {st.kind:<8} Pc {pc} kPa, Ph {ph} kPa "
-                          f"(wanted {st.end_pressure / 1e3:.4g}), {mag}, {sr.n_cells} cells",
-                          highlight=False)
+        for stage, found in zip(t.stages, best.stages, strict=True):
+            mag = (f"{found.magnitude * 100:.3g} %" if stage.kind == "stretch"
+                   else f"{math.degrees(found.magnitude):.3g} deg")
+            pc = "—" if found.start is None else f"{found.start / 1e3:.4g}"
+            ph = "—" if found.end is None else f"{found.end / 1e3:.4g}"
+            console.print(f"  {stage.name:<12} {stage.kind:<8} Pc {pc} kPa, Ph {ph} kPa "
+                          f"(wanted {stage.end_pressure / 1e3:.4g}), {mag}, {found.n_cells} "
+                          f"cells", highlight=False)
     if rob is not None:
         console.print(f"  robustness: P(order holds) = {rob.p_order:.1%}, P(all targets met) "
                       f"= {rob.p_meets:.1%} over {rob.n_samples} samples", highlight=False)

@@ -15,6 +15,7 @@ from multimorph.design._models import (
     single_cell,
 )
 from multimorph.design._optimise import DesignResult, DesignSettings, design, evaluate_population
+from multimorph.design._pipeline import DesignRun, run_design, write_design_report
 from multimorph.design._robust import RobustnessReport, material_stderr, robustness
 from multimorph.design._space import (
     N_VARS,
@@ -46,6 +47,7 @@ __all__ = [
     "Constraints",
     "CountingModel",
     "DesignResult",
+    "DesignRun",
     "DesignSettings",
     "Evaluation",
     "RobustnessReport",
@@ -64,6 +66,8 @@ __all__ = [
     "material_stderr",
     "robustness",
     "rom_batch_model",
+    "run_design",
     "single_cell",
     "target_from_spec",
+    "write_design_report",
 ]

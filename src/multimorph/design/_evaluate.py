@@ -103,7 +103,7 @@ class Evaluation:
 
     def to_dict(self) -> dict[str, Any]:
         return {"objective": self.objective, "meets_targets": self.meets,
-                "stages": [s.to_dict() for s in self.stages],
+                "stages": [stage.to_dict() for stage in self.stages],
                 "distances": dict(self.distances), "violations": dict(self.violations),
                 "message": self.message}
 
@@ -136,15 +136,15 @@ def evaluate_one(target: TargetSpec, cand: Candidate, resps: Sequence[Any],
     failed = 0
     n_cells: list[int] = []
     problems: list[str] = []
-    for i, st in enumerate(target.stages):
+    for i, stage in enumerate(target.stages):
         r = resps[i]
         cell = cand.cells[i]
         if not isinstance(r, Response):
             missing += 2.0
             failed += 1
-            problems.append(f"{st.name}: model failed ({r})")
+            problems.append(f"{stage.name}: model failed ({r})")
             n_fail = int(fixed_cells[i]) if fixed_cells is not None else 1
-            stages.append(StageResult(st.name, st.kind, None, None, 0.0, n_fail, None, None,
+            stages.append(StageResult(stage.name, stage.kind, None, None, 0.0, n_fail, None, None,
                                       None))
             n_cells.append(n_fail)
             continue
@@ -152,14 +152,14 @@ def evaluate_one(target: TargetSpec, cand: Candidate, resps: Sequence[Any],
         pc = ch.critical if ch.critical is not None and ch.critical <= pmax else None
         ph = ch.hardening if ch.hardening is not None and ch.hardening <= pmax else None
         probe = build_device_module(target, cand, i, 1)
-        p, m = _stage_curve(probe, r)
+        p, signal = _stage_curve(probe, r)
         at = ph if ph is not None else pmax
-        per_cell = _interp(p, m, at)
+        per_cell = _interp(p, signal, at)
         max_cells = max(1, int(con.max_length // cell.length))
         n = (int(fixed_cells[i]) if fixed_cells is not None
-             else cells_for(st, per_cell, max_cells=max_cells))
+             else cells_for(stage, per_cell, max_cells=max_cells))
         n_cells.append(n)
-        mag = per_cell * (n if st.kind != "stretch" else 1)
+        mag = per_cell * (n if stage.kind != "stretch" else 1)
         lp = np.asarray(r.loading.pressure, float)
         peak = _interp(lp, np.asarray(r.loading.peak_stretch, float), pmax) if lp.size else None
         brk = [mm.break_stretch for mm in (cell.material, cell.bottom_material)
@@ -168,36 +168,38 @@ def evaluate_one(target: TargetSpec, cand: Candidate, resps: Sequence[Any],
         errs: dict[str, float] = {}
         if ph is None:
             missing += 1.0
-            problems.append(f"{st.name}: no hardening pressure below max_pressure")
+            problems.append(f"{stage.name}: no hardening pressure below max_pressure")
         else:
-            errs["end_pressure"] = (ph - st.end_pressure) / st.end_pressure
-        if st.start_pressure is not None:
+            errs["end_pressure"] = (ph - stage.end_pressure) / stage.end_pressure
+        if stage.start_pressure is not None:
             if pc is None:
                 missing += 1.0
-                problems.append(f"{st.name}: no critical pressure below max_pressure")
+                problems.append(f"{stage.name}: no critical pressure below max_pressure")
             else:
-                errs["start_pressure"] = (pc - st.start_pressure) / st.start_pressure
-        errs["magnitude"] = (mag - abs(st.magnitude)) / abs(st.magnitude)
-        if st.part_of is not None:
+                errs["start_pressure"] = (pc - stage.start_pressure) / stage.start_pressure
+        errs["magnitude"] = (mag - abs(stage.magnitude)) / abs(stage.magnitude)
+        if stage.part_of is not None:
             # a graded stage: only its first part's start and its last part's completion
             # are wanted pressures; in between, each part must take over where the previous
             # one completes (no pause, no overlap beyond the pressure tolerance)
-            same = [s.part_of == st.part_of for s in target.stages]
+            same = [other.part_of == stage.part_of for other in target.stages]
             if i + 1 < len(same) and same[i + 1]:
                 errs.pop("end_pressure", None)
             if i > 0 and same[i - 1]:
                 errs.pop("start_pressure", None)
                 prev = stages[-1].end if stages else None
-                if pc is not None and prev is not None and st.start_pressure:
-                    errs["handover"] = (pc - prev) / st.start_pressure
+                if pc is not None and prev is not None and stage.start_pressure:
+                    errs["handover"] = (pc - prev) / stage.start_pressure
         for k, e in errs.items():
             t = tol.magnitude if k == "magnitude" else tol.pressure
-            dist[f"{st.name}.{k}"] = e / t
+            dist[f"{stage.name}.{k}"] = e / t
         if sf is not None:
-            viol[f"{st.name}.safety_factor"] = (con.min_safety_factor - sf) / con.min_safety_factor
-        at_max = _interp(p, m, pmax) * (n if st.kind != "stretch" else 1) if len(p) else None
-        stages.append(StageResult(st.name, st.kind, pc, ph, mag, n, sf, peak, ch.failure, errs,
-                                  at_max))
+            viol[f"{stage.name}.safety_factor"] = ((con.min_safety_factor - sf)
+                                                   / con.min_safety_factor)
+        per_module = n if stage.kind != "stretch" else 1
+        at_max = _interp(p, signal, pmax) * per_module if len(p) else None
+        stages.append(StageResult(stage.name, stage.kind, pc, ph, mag, n, sf, peak, ch.failure,
+                                  errs, at_max))
     # sequence constraints between consecutive stages
     for a, b in itertools.pairwise(stages):
         key = f"{a.name}->{b.name}"
@@ -230,9 +232,10 @@ def evaluate_one(target: TargetSpec, cand: Candidate, resps: Sequence[Any],
 
 def build_device_module(target: TargetSpec, cand: Candidate, i: int, n: int) -> Module:
     """The module of stage ``i`` with ``n`` cells (for its motion per cell)."""
-    st = target.stages[i]
-    kw: dict[str, Any] = dict(name=st.name, kind=st.module_kind, cell=cand.cells[i], n_cells=n)
-    if st.kind == "twist":
+    stage = target.stages[i]
+    kw: dict[str, Any] = dict(name=stage.name, kind=stage.module_kind, cell=cand.cells[i],
+                              n_cells=n)
+    if stage.kind == "twist":
         kw["tilt"] = cand.tilts[i]
-        kw["shaft_radius"] = st.shaft_radius
+        kw["shaft_radius"] = stage.shaft_radius
     return Module(**kw)

@@ -71,13 +71,13 @@ def _relaxed(target: Any, cand: Any, resps: Sequence[Any], tp: float) -> dict[st
     probe = evaluate_one(target, cand, resps, fixed_cells=[1] * len(target.stages))
     con = target.constraints
     lo, frac = [], []
-    for st, sr, cell in zip(target.stages, probe.stages, cand.cells, strict=True):
+    for stage, found, cell in zip(target.stages, probe.stages, cand.cells, strict=True):
         cap = max(1, int(con.max_length // cell.length))
-        if st.kind == "stretch" or not (sr.magnitude > 0 and np.isfinite(sr.magnitude)):
+        if stage.kind == "stretch" or not (found.magnitude > 0 and np.isfinite(found.magnitude)):
             lo.append(1)
             frac.append(0.0)
             continue
-        nstar = min(max(abs(st.magnitude) / sr.magnitude, 1.0), float(cap))
+        nstar = min(max(abs(stage.magnitude) / found.magnitude, 1.0), float(cap))
         n0 = min(int(np.floor(nstar)), cap - 1) if cap > 1 else 1
         lo.append(max(n0, 1))
         frac.append(nstar - lo[-1] if cap > 1 else 0.0)
@@ -212,11 +212,11 @@ def gradient_refine(space: SearchSpace, ev: Evaluation,
         _, r, J = jac
         x = np.asarray(best.candidate.x, float)
         xv = x[variables]
-        g = J.T @ r
+        grad = J.T @ r
         used = np.any(J != 0.0, axis=0)
-        held = ((xv <= 0.0) & (g > 0)) | ((xv >= 1.0) & (g < 0))
+        held = ((xv <= 0.0) & (grad > 0)) | ((xv >= 1.0) & (grad < 0))
         free = np.flatnonzero(used & ~held)
-        if free.size == 0 or not np.any(g[free]):
+        if free.size == 0 or not np.any(grad[free]):
             break
         Jf = J[:, free]
         A = Jf.T @ Jf

@@ -15,6 +15,7 @@ from typing import Any
 
 from multimorph.errors import MultimorphError
 from multimorph.geometry import CellGeometry
+from multimorph.outcome import Outcome
 from multimorph.response import Response
 
 __all__ = ["ROM_BATCH_NAMES", "BatchModel", "CountingModel", "batched", "rom_batch_model",
@@ -66,8 +67,8 @@ def _rom_fast(rom: Any, vectorise: bool | None = None) -> BatchModel | None:
     def measures_fn(wall: str, bottom: str, options: Any) -> Any:
         key = (wall, bottom, options)
         if key not in compiled:
-            ck = rom.cell_kernel(wall, bottom, options)
-            inner = jax.vmap(ck.measures, in_axes=(0, 0, None))
+            kernel = rom.cell_kernel(wall, bottom, options)
+            inner = jax.vmap(kernel.measures, in_axes=(0, 0, None))
             compiled[key] = jax.jit(jax.vmap(inner, in_axes=(0, 0, 0)))
         return compiled[key]
 
@@ -95,25 +96,26 @@ def _rom_fast(rom: Any, vectorise: bool | None = None) -> BatchModel | None:
                 continue
             r = batch.ratios
             for j, i in enumerate(idx):
-                if int(rb.status[j]) != 0:
+                if int(rb.status[j]) != Outcome.COMPLETED.code:
                     out[i] = MultimorphError(f"cell ROM: {rb.message(j)}")
                     continue
-                m = int(rb.count[j])
+                n_points = int(rb.count[j])
                 d = float(batch.length[j])
                 v0 = ((r["w"][j] - 2 * r["ws"][j]) * (r["h"][j] - r["ht"][j] - r["hb"][j])
                       * (1 - 2 * r["df"][j]) * d**3)
                 try:
                     path = EquilibriumPath(
-                        pressure=rb.pressure[j, :m], curvature=rb.curvature[j, :m],
-                        twist_rate=np.zeros(m), axial_stretch=1.0 + rb.q[j, :m, 3],
-                        volume=v0 + meas["volume"][j, :m] * d**3,
-                        peak_stretch=meas["peak_stretch"][j, :m], stable=rb.stable[j, :m],
-                        extra={"q": rb.q[j, :m], "lockup": meas["lockup"][j, :m]})
+                        pressure=rb.pressure[j, :n_points], curvature=rb.curvature[j, :n_points],
+                        twist_rate=np.zeros(n_points), axial_stretch=1.0 + rb.q[j, :n_points, 3],
+                        volume=v0 + meas["volume"][j, :n_points] * d**3,
+                        peak_stretch=meas["peak_stretch"][j, :n_points],
+                        stable=rb.stable[j, :n_points],
+                        extra={"q": rb.q[j, :n_points], "lockup": meas["lockup"][j, :n_points]})
                     bs = cells[i].material.break_stretch
                     out[i] = build_response(path, length=d, shear_modulus=float(batch.mu[j]),
                                             backend="rom", break_stretch=bs,
                                             signal=cells[i].signal,
-                                            meta={"model": "cell-ritz", "points": m})
+                                            meta={"model": "cell-ritz", "points": n_points})
                 except MultimorphError as exc:
                     out[i] = exc
         return out
@@ -130,9 +132,9 @@ def rom_batch_model(vectorised: bool = False) -> BatchModel:
     vectorised : bool
         ``True``: one vmapped, jitted trace per batch (``rom.solve_batch(vectorise=True)``,
         measures in one padded call). ``False`` (default): single-design traces in a loop.
-        On this 2-core CPU machine a derivative evaluation costs as much per design inside
-        a vmapped batch as alone, so the loop is as fast or faster (40 vs 29 curves/s,
-        ``benchmarks/bench_rom.py``, 2026-11-22); vectorise on a GPU. Both give the same
+        On a CPU a derivative evaluation costs as much per design inside a vmapped batch
+        as alone, so the loop is as fast or faster (``benchmarks/README.md``); vectorise on
+        a GPU. Both give the same
         responses. The loop traces each
         design as a batch of one with its path measures padded to the full path length, so
         it compiles once (``rom.solve_cell`` evaluates the measures on the path's own

@@ -163,9 +163,9 @@ class DesignResult:
             "seed": self.settings.seed,
             "budget": self.settings.budget,
             "designs": [d.to_dict() for d in self.designs],
-            "gradient": [{"objective_before": g.objective_before,
-                          "objective_after": g.objective_after, "trials": g.trials}
-                         for g in self.gradient_steps],
+            "gradient": [{"objective_before": step.objective_before,
+                          "objective_after": step.objective_after, "trials": step.trials}
+                         for step in self.gradient_steps],
             "graded": self.graded_stages(),
         }
 
@@ -178,27 +178,27 @@ class DesignResult:
         out: dict[str, Any] = {}
         best = self.best
         tol = self.target.tolerance
-        for st in self.wanted.stages:
-            idx = [i for i, s in enumerate(self.target.stages) if s.part_of == st.name]
+        for whole in self.wanted.stages:
+            idx = [i for i, part in enumerate(self.target.stages) if part.part_of == whole.name]
             if not idx:
                 continue
             entry: dict[str, Any] = {
                 "parts": [self.target.stages[i].name for i in idx],
-                "wanted": {"start_pressure": st.start_pressure,
-                           "end_pressure": st.end_pressure, "magnitude": st.magnitude}}
+                "wanted": {"start_pressure": whole.start_pressure,
+                           "end_pressure": whole.end_pressure, "magnitude": whole.magnitude}}
             if best is not None:
                 srs = [best.stages[i] for i in idx]
                 start, end = srs[0].start, srs[-1].end
-                mags = [s.magnitude for s in srs]
-                mag = None if any(m is None for m in mags) else float(sum(mags))
+                mags = [part.magnitude for part in srs]
+                mag = None if any(value is None for value in mags) else float(sum(mags))
                 ok = (start is not None and end is not None and mag is not None
-                      and st.start_pressure is not None
-                      and abs(start / st.start_pressure - 1) <= tol.pressure
-                      and abs(end / st.end_pressure - 1) <= tol.pressure
-                      and abs(mag / abs(st.magnitude) - 1) <= tol.magnitude)
+                      and whole.start_pressure is not None
+                      and abs(start / whole.start_pressure - 1) <= tol.pressure
+                      and abs(end / whole.end_pressure - 1) <= tol.pressure
+                      and abs(mag / abs(whole.magnitude) - 1) <= tol.magnitude)
                 entry["predicted"] = {"start_pressure": start, "end_pressure": end,
                                       "magnitude": mag, "met": bool(ok)}
-            out[st.name] = entry
+            out[whole.name] = entry
         return out
 
 
@@ -207,8 +207,8 @@ def evaluate_population(space: SearchSpace, X: np.ndarray, model: Any) -> list[E
     cands = [space.decode(x) for x in np.atleast_2d(X)]
     cells = [c for cand in cands for c in cand.cells]
     out = model(cells, space.target.constraints.max_pressure)
-    s = space.n_stages
-    resps = [out[k * s:(k + 1) * s] for k in range(len(cands))]
+    stage_count = space.n_stages
+    resps = [out[k * stage_count:(k + 1) * stage_count] for k in range(len(cands))]
     return evaluate_candidates(space, cands, resps)
 
 
@@ -216,10 +216,10 @@ def _static_checks(space: SearchSpace) -> list[str]:
     t = space.target
     pmax = t.constraints.max_pressure
     out = list(space.check())
-    for st in t.stages:
-        if st.end_pressure > pmax:
-            out.append(f"max_pressure binds: stage {st.name!r} must complete at "
-                       f"{st.end_pressure / 1e3:.4g} kPa, above the supply pressure "
+    for stage in t.stages:
+        if stage.end_pressure > pmax:
+            out.append(f"max_pressure binds: stage {stage.name!r} must complete at "
+                       f"{stage.end_pressure / 1e3:.4g} kPa, above the supply pressure "
                        f"max_pressure = {pmax / 1e3:.4g} kPa")
     return out
 
@@ -237,20 +237,21 @@ def _reachability(space: SearchSpace, model: Any) -> tuple[dict[str, Any], list[
     nm = len(mats)
     reach: dict[str, Any] = {}
     reasons: list[str] = []
-    for i, st in enumerate(t.stages):
+    for i, stage in enumerate(t.stages):
         stiff = [(evs[j].stages[i].end, mats[j].name) for j in range(nm)]
         soft = [(evs[nm + j].stages[i].end, evs[nm + j].stages[i].start, mats[j].name)
                 for j in range(nm)]
-        reach[st.name] = {
+        reach[stage.name] = {
             "stiffest_end_pressure": {n: p for p, n in stiff},
             "softest_end_pressure": {n: p for p, _, n in soft},
         }
         # too stiff a target: even the stiffest corner of every material completes too early
         if all(p is not None for p, _ in stiff):
             top, name = max(stiff, key=lambda pn: pn[0])
-            if top < st.end_pressure * (1.0 - tol):
+            if top < stage.end_pressure * (1.0 - tol):
                 reasons.append(
-                    f"stage {st.name!r} must complete at {st.end_pressure / 1e3:.4g} kPa, but "
+                    f"stage {stage.name!r} must complete at {stage.end_pressure / 1e3:.4g} kPa, "
+                    f"but "
                     f"the stiffest allowed design (material {name!r}, the thickest walls "
                     f"max_width = {t.constraints.max_width * 1e3:.4g} mm and max_height = "
                     f"{t.constraints.max_height * 1e3:.4g} mm allow) completes by "
@@ -261,12 +262,12 @@ def _reachability(space: SearchSpace, model: Any) -> tuple[dict[str, Any], list[
                   for e_, s_, _ in soft]
         low = min(firsts)
         name = soft[firsts.index(low)][2]
-        if low > st.end_pressure * (1.0 + tol):
+        if low > stage.end_pressure * (1.0 + tol):
             when = (f"only starts moving at {low / 1e3:.4g} kPa" if math.isfinite(low) else
                     f"does not start moving below max_pressure = "
                     f"{t.constraints.max_pressure / 1e3:.4g} kPa")
             reasons.append(
-                f"stage {st.name!r} must complete at {st.end_pressure / 1e3:.4g} kPa, but "
+                f"stage {stage.name!r} must complete at {stage.end_pressure / 1e3:.4g} kPa, but "
                 f"the softest allowed design (material {name!r}, every wall at min_wall = "
                 f"{t.constraints.min_wall * 1e3:.4g} mm, largest chambers) {when}: min_wall "
                 f"and the allowed materials bind (thinner walls or a softer material are "
@@ -280,13 +281,13 @@ def _binding(space: SearchSpace, ev: Evaluation) -> list[str]:
     c = t.constraints
     out: list[str] = []
     mats = c.materials
-    mu = [m.shear_modulus for m in mats]
-    for i, st in enumerate(t.stages):
+    mu = [material.shear_modulus for material in mats]
+    for i, stage in enumerate(t.stages):
         u = ev.candidate.x[i * N_VARS:(i + 1) * N_VARS]
         im, ib = ev.candidate.material_index[i]
         act = []
         for j, name in enumerate(VAR_NAMES[:7]):
-            if st.kind == "stretch" and name == "bottom_wall":
+            if stage.kind == "stretch" and name == "bottom_wall":
                 continue
             if name in ("top_wall", "bottom_wall", "side_wall", "end_wall") and u[j] <= 0.02:
                 act.append(f"{name} at min_wall {c.min_wall * 1e3:.3g} mm")
@@ -302,10 +303,10 @@ def _binding(space: SearchSpace, ev: Evaluation) -> list[str]:
             act.append(f"wall material the softest allowed ({mats[im].name})")
         sr = ev.stages[i]
         cell = ev.candidate.cells[i]
-        if st.kind != "stretch" and sr.n_cells >= max(1, int(c.max_length // cell.length)):
+        if stage.kind != "stretch" and sr.n_cells >= max(1, int(c.max_length // cell.length)):
             act.append(f"cells capped by max_length {c.max_length * 1e3:.4g} mm")
         if act:
-            out.append(f"stage {st.name!r}: " + "; ".join(act))
+            out.append(f"stage {stage.name!r}: " + "; ".join(act))
         del ib
     return out
 
@@ -318,19 +319,19 @@ def _explain(space: SearchSpace, ev: Evaluation) -> list[str]:
     for key, d in ev.distances.items():
         if abs(d) > 1.0:
             stage, what = key.split(".", 1)
-            st = next(s for s in t.stages if s.name == stage)
-            sr = next(s for s in ev.stages if s.name == stage)
+            wanted = next(candidate for candidate in t.stages if candidate.name == stage)
+            sr = next(candidate for candidate in ev.stages if candidate.name == stage)
             tolv = t.tolerance.magnitude if what == "magnitude" else t.tolerance.pressure
             rel = d * tolv
             if what == "magnitude":
-                unit = "%" if st.kind == "stretch" else "deg"
-                got = sr.magnitude * 100 if st.kind == "stretch" else math.degrees(sr.magnitude)
-                want = (abs(st.magnitude) * 100 if st.kind == "stretch"
-                        else math.degrees(abs(st.magnitude)))
+                unit = "%" if wanted.kind == "stretch" else "deg"
+                got = sr.magnitude * 100 if wanted.kind == "stretch" else math.degrees(sr.magnitude)
+                want = (abs(wanted.magnitude) * 100 if wanted.kind == "stretch"
+                        else math.degrees(abs(wanted.magnitude)))
                 out.append(f"stage {stage!r} magnitude {got:.3g} {unit} vs wanted {want:.3g} "
                            f"{unit} ({rel:+.0%}, tolerance ±{tolv:.0%})")
             else:
-                want = st.end_pressure if what == "end_pressure" else st.start_pressure
+                want = wanted.end_pressure if what == "end_pressure" else wanted.start_pressure
                 got = sr.end if what == "end_pressure" else sr.start
                 out.append(f"stage {stage!r} {what.replace('_', ' ')} {got / 1e3:.4g} kPa vs "
                            f"wanted {want / 1e3:.4g} kPa ({rel:+.0%}, tolerance ±{tolv:.0%})")
@@ -370,22 +371,23 @@ def design(target: TargetSpec, *, model: BatchModel | None = None,
         Ranked designs; ``feasible`` False with an ``explanation`` when no design meets the
         target (never a silent poor design).
     """
-    s = settings or DesignSettings()
+    settings = settings or DesignSettings()
     t0 = time.perf_counter()
     # bounds that no design can meet, named by the stages as written
     static = _static_checks(SearchSpace(target))
     if static:
-        return DesignResult(target, s, False, [], static, {}, 0, 0, [],
+        return DesignResult(target, settings, False, [], static, {}, 0, 0, [],
                             time.perf_counter() - t0)
     wanted = None
-    if s.graded:
-        parts = graded_target(target, s.graded_ratio)
+    if settings.graded:
+        parts = graded_target(target, settings.graded_ratio)
         if parts is not target:
             wanted, target = target, parts
     space = SearchSpace(target)
     raw = model if model is not None else rom_batch_model()
-    counted = CountingModel(raw, pad_to=s.batch_cells or s.population * space.n_stages)
-    rng = np.random.default_rng(s.seed)
+    counted = CountingModel(raw, pad_to=(settings.batch_cells
+                                         or settings.population * space.n_stages))
+    rng = np.random.default_rng(settings.seed)
     history: list[float] = []
     archive: dict[bytes, Evaluation] = {}
 
@@ -396,21 +398,21 @@ def design(target: TargetSpec, *, model: BatchModel | None = None,
         best = min(e.objective for e in archive.values()) if archive else math.inf
         history.append(best)
         if progress is not None:
-            progress(counted.evaluations, s.budget, phase)
+            progress(counted.evaluations, settings.budget, phase)
         return evs
 
     # reachability of the targets by the corner designs (explains infeasible targets)
     reach, reasons = _reachability(space, lambda c, p: counted(c, p))
     if progress is not None:
-        progress(counted.evaluations, s.budget, "reachability")
+        progress(counted.evaluations, settings.budget, "reachability")
     if reasons:
-        return DesignResult(target, s, False, [], reasons, reach, counted.evaluations,
+        return DesignResult(target, settings, False, [], reasons, reach, counted.evaluations,
                             counted.calls, history, time.perf_counter() - t0, wanted=wanted)
 
     # global stage: differential evolution
-    n, dim = s.population, space.dim
+    n, dim = settings.population, space.dim
     S = space.n_stages
-    global_budget = s.budget * (1.0 - s.refine_fraction)
+    global_budget = settings.budget * (1.0 - settings.refine_fraction)
     X = (rng.permuted(np.tile(np.arange(n), (dim, 1)), axis=1).T
          + rng.random((n, dim))) / n                     # Latin hypercube
     evs = run(X, "global")
@@ -436,18 +438,18 @@ def design(target: TargetSpec, *, model: BatchModel | None = None,
     kb = int(np.argmin(f))
     xb, fb = X[kb].copy(), float(f[kb])
     steps: list[GradientStep] = []
-    if s.gradient and s.gradient_iterations > 0:
+    if settings.gradient and settings.gradient_iterations > 0:
         gbest, steps = gradient_refine(
             space, evs[kb], lambda Xg: run(Xg, "gradient"),
-            lambda k: counted.evaluations + k * S <= s.budget,
-            max_iter=s.gradient_iterations)
+            lambda k: counted.evaluations + k * S <= settings.budget,
+            max_iter=settings.gradient_iterations)
         if gbest.objective < fb:
             xb, fb = np.asarray(gbest.candidate.x, float).copy(), float(gbest.objective)
 
     # local stage: compass search on the continuous variables of the best design
     cont = [i * N_VARS + j for i in range(S) for j in (0, 1, 2, 3, 4, 5, 6, 9)]
     step = 0.08
-    while step > 2e-3 and counted.evaluations + 2 * len(cont) * S <= s.budget:
+    while step > 2e-3 and counted.evaluations + 2 * len(cont) * S <= settings.budget:
         P = np.repeat(xb[None, :], 2 * len(cont), axis=0)
         for k, j in enumerate(cont):
             P[2 * k, j] = min(1.0, xb[j] + step)
@@ -469,27 +471,27 @@ def design(target: TargetSpec, *, model: BatchModel | None = None,
             continue
         seen.add(key)
         top.append(e)
-        if len(top) >= max(s.top, s.robust_shortlist):
+        if len(top) >= max(settings.top, settings.robust_shortlist):
             break
     robust_scores: dict[int, float] = {}
-    if s.robust_samples > 0:
+    if settings.robust_samples > 0:
         from multimorph.design._robust import robustness
 
-        shortlist = top[:s.robust_shortlist]
+        shortlist = top[:settings.robust_shortlist]
         scored = []
         for e in shortlist:
-            rep = robustness(target, e, n_samples=s.robust_samples, seed=s.seed,
+            rep = robustness(target, e, n_samples=settings.robust_samples, seed=settings.seed,
                              model=lambda c, p: counted(c, p),
-                             wall_tolerance=s.wall_tolerance, default_cv=s.default_cv)
+                             wall_tolerance=settings.wall_tolerance, default_cv=settings.default_cv)
             score = rep.mean_objective + 10.0 * (1.0 - rep.p_order)
             scored.append((score, e))
         scored.sort(key=lambda se: se[0])
         top = [e for _, e in scored] + top[len(shortlist):]
         robust_scores = {k: sc for k, (sc, _) in enumerate(scored)}
-    top = top[:s.top]
+    top = top[:settings.top]
     best = top[0]
     feasible = bool(best.meets)
     explanation = [] if feasible else _explain(space, best)
-    return DesignResult(target, s, feasible, top, explanation, reach, counted.evaluations,
+    return DesignResult(target, settings, feasible, top, explanation, reach, counted.evaluations,
                         counted.calls, history, time.perf_counter() - t0, robust_scores,
                         tuple(steps), wanted=wanted)

@@ -17,22 +17,22 @@ __all__ = ["convergence_figure", "device_toml", "report_dict", "report_markdown"
            "robustness_figure", "sequence_figure"]
 
 
-def _q(s: str) -> str:
-    return '"' + s.replace("\\", "\\\\").replace('"', '\\"') + '"'
+def _q(text: str) -> str:
+    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
 
 
 def _mm(x: float) -> str:
     return _q(f"{x * 1e3:.12g} mm")
 
 
-def _is_library(m: Material) -> bool:
+def _is_library(material: Material) -> bool:
     from multimorph.materials import get_material
 
     try:
-        lib = get_material(m.name, m.model)
+        lib = get_material(material.name, material.model)
     except Exception:
         return False
-    return dict(lib.params) == dict(m.params)
+    return dict(lib.params) == dict(material.params)
 
 
 def device_toml(device: Device, *, header: str = "") -> str:
@@ -43,8 +43,8 @@ def device_toml(device: Device, *, header: str = "") -> str:
     pmax = f"{device.pmax / 1e3:.6g} kPa"
     lines += ["[device]", f"name = {_q(device.name)}", f"pmax = {_q(pmax)}", ""]
     mats: dict[str, Material] = {}
-    for m in device.modules:
-        for mm in (m.cell.material, m.cell.bottom_material):
+    for module in device.modules:
+        for mm in (module.cell.material, module.cell.bottom_material):
             assert mm is not None
             mats.setdefault(mm.name, mm)
     inline = {n: mm for n, mm in mats.items() if not _is_library(mm)}
@@ -56,9 +56,9 @@ def device_toml(device: Device, *, header: str = "") -> str:
         if mm.break_stretch:
             lines.append(f"break_stretch = {float(mm.break_stretch)!r}")
         lines.append("")
-    for m in device.modules:
-        c = m.cell
-        lines.append(f"[cells.{_q(m.name)}]")
+    for module in device.modules:
+        c = module.cell
+        lines.append(f"[cells.{_q(module.name)}]")
         for key in ("length", "width", "height", "top_wall", "bottom_wall", "side_wall",
                     "end_wall"):
             lines.append(f"{key} = {_mm(getattr(c, key))}")
@@ -66,17 +66,17 @@ def device_toml(device: Device, *, header: str = "") -> str:
         assert c.bottom_material is not None
         lines.append(f"bottom_material = {_q(c.bottom_material.name)}")
         lines.append("")
-    for m in device.modules:
-        lines += ["[[module]]", f"name = {_q(m.name)}", f"kind = {_q(m.kind)}",
-                  f"cell = {_q(m.name)}", f"cells = {m.n_cells}"]
-        if m.kind == "twisting":
-            lines += [f"tilt = {_q(f'{math.degrees(m.tilt):.12g} deg')}",
-                      f"shaft_radius = {_mm(m.shaft_radius)}", f"strips = {m.strips}"]
-        if m.orientation:
-            lines.append(f"orientation = {_q(f'{math.degrees(m.orientation):.6g} deg')}")
-        if m.attach_to is not None:
-            lines += [f"attach_to = {_q(m.attach_to)}", f"count = {m.count}",
-                      f"radius = {_mm(m.radius)}"]
+    for module in device.modules:
+        lines += ["[[module]]", f"name = {_q(module.name)}", f"kind = {_q(module.kind)}",
+                  f"cell = {_q(module.name)}", f"cells = {module.n_cells}"]
+        if module.kind == "twisting":
+            lines += [f"tilt = {_q(f'{math.degrees(module.tilt):.12g} deg')}",
+                      f"shaft_radius = {_mm(module.shaft_radius)}", f"strips = {module.strips}"]
+        if module.orientation:
+            lines.append(f"orientation = {_q(f'{math.degrees(module.orientation):.6g} deg')}")
+        if module.attach_to is not None:
+            lines += [f"attach_to = {_q(module.attach_to)}", f"count = {module.count}",
+                      f"radius = {_mm(module.radius)}"]
         lines.append("")
     return "\n".join(lines)
 
@@ -97,9 +97,9 @@ def report_dict(result: DesignResult, robust: RobustnessReport | None = None,
     """Everything of a run as a JSON-able dict (SI units)."""
     t = result.target
     out = result.to_dict()
-    out["stages"] = [{"name": s.name, "kind": s.kind, "magnitude": s.magnitude,
-                      "start_pressure": s.start_pressure, "end_pressure": s.end_pressure,
-                      "count": s.count} for s in t.stages]
+    out["stages"] = [{"name": stage.name, "kind": stage.kind, "magnitude": stage.magnitude,
+                      "start_pressure": stage.start_pressure, "end_pressure": stage.end_pressure,
+                      "count": stage.count} for stage in t.stages]
     out["tolerance"] = {"pressure": t.tolerance.pressure, "magnitude": t.tolerance.magnitude}
     out["robustness"] = None if robust is None else robust.to_dict()
     out["sequence"] = sequence
@@ -131,13 +131,14 @@ def report_markdown(result: DesignResult, robust: RobustnessReport | None = None
               "| stage | kind | cells | wanted start | predicted Pc | wanted end | predicted Ph "
               "| wanted | predicted | safety factor | at max pressure |",
               "|---|---|---|---|---|---|---|---|---|---|---|"]
-        for st, sr in zip(t.stages, best.stages, strict=True):
+        for stage, sr in zip(t.stages, best.stages, strict=True):
             sf = "—" if sr.safety_factor is None else f"{sr.safety_factor:.2f}"
-            L.append(f"| {st.name} | {st.kind} | {sr.n_cells} | {_fmt_p(st.start_pressure)} | "
-                     f"{_fmt_p(sr.start)} | {_fmt_p(st.end_pressure)} | {_fmt_p(sr.end)} | "
-                     f"{_fmt_mag(st.kind, abs(st.magnitude))} | "
-                     f"{_fmt_mag(st.kind, sr.magnitude)} | {sf} | "
-                     f"{_fmt_mag(st.kind, sr.magnitude_at_max)} |")
+            L.append(f"| {stage.name} | {stage.kind} | {sr.n_cells} | "
+                     f"{_fmt_p(stage.start_pressure)} | "
+                     f"{_fmt_p(sr.start)} | {_fmt_p(stage.end_pressure)} | {_fmt_p(sr.end)} | "
+                     f"{_fmt_mag(stage.kind, abs(stage.magnitude))} | "
+                     f"{_fmt_mag(stage.kind, sr.magnitude)} | {sf} | "
+                     f"{_fmt_mag(stage.kind, sr.magnitude_at_max)} |")
         graded = result.graded_stages()
         if graded:
             L += ["", f"Graded stages (bands wider than Ph/Pc = {result.settings.graded_ratio:.3g} "
@@ -146,22 +147,22 @@ def report_markdown(result: DesignResult, robust: RobustnessReport | None = None
                   "part's Ph):", "",
                   "| stage | parts | wanted start | start | wanted end | end | wanted | "
                   "predicted | met |", "|---|---|---|---|---|---|---|---|---|"]
-            kinds = {s.name: s.kind for s in t.stages}
-            for name, g in graded.items():
-                w, pr = g["wanted"], g.get("predicted", {})
-                kind = kinds[g["parts"][0]]
-                L.append(f"| {name} | {', '.join(g['parts'])} | "
+            kinds = {value.name: value.kind for value in t.stages}
+            for name, parts in graded.items():
+                w, pr = parts["wanted"], parts.get("predicted", {})
+                kind = kinds[parts["parts"][0]]
+                L.append(f"| {name} | {', '.join(parts['parts'])} | "
                          f"{_fmt_p(w['start_pressure'])} | {_fmt_p(pr.get('start_pressure'))} "
                          f"| {_fmt_p(w['end_pressure'])} | {_fmt_p(pr.get('end_pressure'))} | "
                          f"{_fmt_mag(kind, abs(w['magnitude']))} | "
                          f"{_fmt_mag(kind, pr.get('magnitude'))} | "
                          f"{'yes' if pr.get('met') else 'no'} |")
         L += ["", "Cells of the best design:", ""]
-        for st, c, tilt in zip(t.stages, best.candidate.cells, best.candidate.tilts,
+        for stage, c, tilt in zip(t.stages, best.candidate.cells, best.candidate.tilts,
                                strict=True):
-            extra = f", tilt {math.degrees(tilt):.3g}°" if st.kind == "twist" else ""
+            extra = f", tilt {math.degrees(tilt):.3g}°" if stage.kind == "twist" else ""
             assert c.bottom_material is not None
-            L.append(f"- {st.name}: d {c.length * 1e3:.3g} × w {c.width * 1e3:.3g} × h "
+            L.append(f"- {stage.name}: d {c.length * 1e3:.3g} × w {c.width * 1e3:.3g} × h "
                      f"{c.height * 1e3:.3g} mm; walls top {c.top_wall * 1e3:.3g}, bottom "
                      f"{c.bottom_wall * 1e3:.3g}, side {c.side_wall * 1e3:.3g}, end "
                      f"{c.end_wall * 1e3:.3g} mm; {c.material.name} / "
@@ -180,12 +181,12 @@ def report_markdown(result: DesignResult, robust: RobustnessReport | None = None
     if sequence:
         L += ["## Predicted sequence (device simulation)", "",
               f"Order by Pc: {' → '.join(sequence['order'])}.", ""]
-        for m in sequence["margins"]:
-            if m["margin"] is None:
-                L.append(f"- {m['earlier']} → {m['later']}: undetermined")
+        for margin in sequence["margins"]:
+            if margin["margin"] is None:
+                L.append(f"- {margin['earlier']} → {margin['later']}: undetermined")
             else:
-                L.append(f"- {m['earlier']} → {m['later']}: {m['verdict']} (Pc_later − "
-                         f"Ph_earlier = {m['margin'] / 1e3:+.3g} kPa)")
+                L.append(f"- {margin['earlier']} → {margin['later']}: {margin['verdict']} "
+                         f"(Pc_later − Ph_earlier = {margin['margin'] / 1e3:+.3g} kPa)")
         L.append(f"- first to fail beyond the path: {sequence.get('first_to_fail') or 'none'}")
         L.append("")
     if robust is not None:
@@ -200,18 +201,18 @@ def report_markdown(result: DesignResult, robust: RobustnessReport | None = None
               f"every target and constraint is met: **{robust.p_meets:.1%}**.", "",
               "| stage | quantity | mean | std | 5 % | 95 % | not reached |",
               "|---|---|---|---|---|---|---|"]
-        for st in t.stages:
-            for q, s in robust.stages[st.name].items():
-                if s["mean"] is None:
-                    L.append(f"| {st.name} | {q} | — | — | — | — | {s['missing']} |")
+        for stage in t.stages:
+            for q, value in robust.stages[stage.name].items():
+                if value["mean"] is None:
+                    L.append(f"| {stage.name} | {q} | — | — | — | — | {value['missing']} |")
                     continue
                 if q == "magnitude":
-                    def f(v, k=st.kind):
+                    def f(v, k=stage.kind):
                         return (_fmt_mag(k, v))
                 else:
                     f = _fmt_p
-                L.append(f"| {st.name} | {q} | {f(s['mean'])} | {f(s['std'])} | "
-                         f"{f(s['p05'])} | {f(s['p95'])} | {s['missing']} |")
+                L.append(f"| {stage.name} | {q} | {f(value['mean'])} | {f(value['std'])} | "
+                         f"{f(value['p05'])} | {f(value['p95'])} | {value['missing']} |")
         L.append("")
     if verification is not None:
         L += ["## FE verification", "", "```", str(verification), "```", ""]
@@ -224,10 +225,10 @@ def sequence_figure(device_result: Any, target: Any) -> Any:
 
     fig = module_curves_figure(device_result)
     ax = fig.axes[0]
-    for st in target.stages:
-        ax.axvline(st.end_pressure / 1e3, color="k", lw=0.8, ls="--")
-        if st.start_pressure is not None:
-            ax.axvline(st.start_pressure / 1e3, color="k", lw=0.8, ls=":")
+    for stage in target.stages:
+        ax.axvline(stage.end_pressure / 1e3, color="k", lw=0.8, ls="--")
+        if stage.start_pressure is not None:
+            ax.axvline(stage.start_pressure / 1e3, color="k", lw=0.8, ls=":")
     return fig
 
 
@@ -253,15 +254,15 @@ def robustness_figure(robust: RobustnessReport, target: Any) -> Any:
 
     fig = Figure(figsize=(7.0, 3.8), layout="constrained")
     ax = fig.add_subplot(1, 1, 1)
-    for i, st in enumerate(target.stages):
-        s = robust.samples.get(st.name, {})
+    for i, stage in enumerate(target.stages):
+        drawn = robust.samples.get(stage.name, {})
         for key, alpha in (("start_pressure", 0.35), ("end_pressure", 0.7)):
-            v = np.asarray(s.get(key, []), float)
+            v = np.asarray(drawn.get(key, []), float)
             v = v[np.isfinite(v)]
             if v.size:
                 ax.hist(v / 1e3, bins=20, alpha=alpha, color=f"C{i}",
-                        label=f"{st.name} {key.split('_')[0]}")
-        ax.axvline(st.end_pressure / 1e3, color=f"C{i}", ls="--", lw=1)
+                        label=f"{stage.name} {key.split('_')[0]}")
+        ax.axvline(stage.end_pressure / 1e3, color=f"C{i}", ls="--", lw=1)
     ax.set_xlabel("pressure (kPa)")
     ax.set_ylabel("samples")
     ax.set_title(f"robustness: P(order holds) = {robust.p_order:.0%}", fontsize=10)

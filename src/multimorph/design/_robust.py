@@ -134,7 +134,7 @@ def robustness(target: TargetSpec, design: Evaluation, *, n_samples: int = 64, s
         raise SpecError(f"robustness: n_samples must be positive, got {n_samples}")
     if not (wall_tolerance >= 0 and default_cv >= 0):
         raise SpecError("robustness: wall_tolerance and default_cv must be non-negative")
-    m = model if model is not None else CountingModel(rom_batch_model(), pad_to=None)
+    counting = model if model is not None else CountingModel(rom_batch_model(), pad_to=None)
     rng = np.random.default_rng(seed)
     cand = design.candidate
     materials: dict[str, Material] = {}
@@ -152,7 +152,7 @@ def robustness(target: TargetSpec, design: Evaluation, *, n_samples: int = 64, s
               for k, v in mm.params.items()}
         sigma[name] = sd
         uncertainty[name] = {"source": source, "std": sd, "nominal": dict(mm.params)}
-    n_cells = [s.n_cells for s in design.stages]
+    n_cells = [found.n_cells for found in design.stages]
     cands: list[Candidate] = []
     for _ in range(n_samples):
         drawn = {}
@@ -166,33 +166,33 @@ def robustness(target: TargetSpec, design: Evaluation, *, n_samples: int = 64, s
         cands.append(Candidate(x=cand.x, cells=cells, tilts=cand.tilts,
                                material_index=cand.material_index))
     flat = [c for cd in cands for c in cd.cells]
-    out = m(flat, target.constraints.max_pressure)
+    out = counting(flat, target.constraints.max_pressure)
     S = len(target.stages)
     evs = [evaluate_one(target, cd, out[k * S:(k + 1) * S], fixed_cells=n_cells)
            for k, cd in enumerate(cands)]
     order_ok = 0
     for e in evs:
-        starts = [s.start for s in e.stages]
-        if all(s is not None for s in starts) and all(
+        starts = [found.start for found in e.stages]
+        if all(found is not None for found in starts) and all(
                 a < b for a, b in itertools.pairwise(starts)):
             order_ok += 1
     stats: dict[str, dict[str, dict[str, float | int | None]]] = {}
     samples: dict[str, dict[str, np.ndarray]] = {}
-    for i, st in enumerate(target.stages):
-        stats[st.name] = {}
+    for i, stage in enumerate(target.stages):
+        stats[stage.name] = {}
         for key in ("start", "end", "magnitude"):
             vals = [getattr(e.stages[i], key) for e in evs]
             arr = np.array([v for v in vals if v is not None], float)
             label = {"start": "start_pressure", "end": "end_pressure"}.get(key, key)
-            samples.setdefault(st.name, {})[label] = np.array(
+            samples.setdefault(stage.name, {})[label] = np.array(
                 [np.nan if v is None else v for v in vals], float)
             if arr.size:
-                stats[st.name][label] = {
+                stats[stage.name][label] = {
                     "mean": float(arr.mean()), "std": float(arr.std(ddof=1)) if arr.size > 1
                     else 0.0, "p05": float(np.percentile(arr, 5)),
                     "p95": float(np.percentile(arr, 95)), "missing": len(vals) - int(arr.size)}
             else:
-                stats[st.name][label] = {"mean": None, "std": None, "p05": None, "p95": None,
+                stats[stage.name][label] = {"mean": None, "std": None, "p05": None, "p95": None,
                                          "missing": len(vals)}
     return RobustnessReport(
         n_samples=n_samples, seed=seed, p_order=order_ok / n_samples,

@@ -101,7 +101,7 @@ class SearchSpace:
         lo = self._lo()
         tmin, mc = c.min_wall, self.min_chamber
         cells, tilts, midx = [], [], []
-        for i, st in enumerate(self.target.stages):
+        for i, stage in enumerate(self.target.stages):
             u = x[i * N_VARS:(i + 1) * N_VARS]
             d_lo, d_hi = max(self.d_range[0], lo), max(self.d_range[1], lo)
             d = d_lo + u[0] * (d_hi - d_lo)
@@ -115,7 +115,7 @@ class SearchSpace:
             im = min(int(u[7] * nm), nm - 1)
             ib = min(int(u[8] * nm), nm - 1)
             wall = mats[im]
-            sym = st.kind == "stretch"
+            sym = stage.kind == "stretch"
             if sym:
                 hb, ib = ht, im
             bottom = mats[ib]
@@ -153,33 +153,34 @@ def build_device(target: TargetSpec, cand: Candidate, n_cells: Sequence[int],
     serial module; the others follow each other on the main branch in stage order.
     """
     mods: list[Module] = []
-    serial = [i for i, s in enumerate(target.stages) if s.count == 1]
+    serial = [i for i, other in enumerate(target.stages) if other.count == 1]
     if not serial:
         raise SpecError("a device needs at least one stage with count = 1 (its backbone)")
-    for i, st in enumerate(target.stages):
-        kw = dict(name=st.name, kind=st.module_kind, cell=cand.cells[i],
+    for i, stage in enumerate(target.stages):
+        kw = dict(name=stage.name, kind=stage.module_kind, cell=cand.cells[i],
                   n_cells=int(n_cells[i]))
-        if st.kind == "bend" and st.sign < 0:
+        if stage.kind == "bend" and stage.sign < 0:
             kw["orientation"] = math.pi
-        if st.kind == "twist":
-            kw["tilt"] = cand.tilts[i] * (1.0 if st.sign > 0 else -1.0)
-            kw["shaft_radius"] = st.shaft_radius
-        if st.count > 1:
-            kw.update(count=st.count, attach_to=target.stages[serial[-1]].name,
-                      branch=f"{st.name}-branch", radius=0.5 * cand.cells[i].width)
+        if stage.kind == "twist":
+            kw["tilt"] = cand.tilts[i] * (1.0 if stage.sign > 0 else -1.0)
+            kw["shaft_radius"] = stage.shaft_radius
+        if stage.count > 1:
+            kw.update(count=stage.count, attach_to=target.stages[serial[-1]].name,
+                      branch=f"{stage.name}-branch", radius=0.5 * cand.cells[i].width)
         mods.append(Module(**kw))
     placed: list[Module] = []
     cursor = 0.0
-    for m in mods:
-        if m.attach_to is None:
-            m = replace(m, start=cursor)
-            cursor = m.end
-        placed.append(m)
+    for module in mods:
+        if module.attach_to is None:
+            module = replace(module, start=cursor)
+            cursor = module.end
+        placed.append(module)
     return Device(tuple(placed), name=name or target.name, pmax=target.constraints.max_pressure)
 
 
 def device_length(device: Device) -> float:
     """Backbone length plus the longest parallel branch (m)."""
-    main = sum(m.length for m in device.modules if m.attach_to is None)
-    branch = max((m.length for m in device.modules if m.attach_to is not None), default=0.0)
+    main = sum(module.length for module in device.modules if module.attach_to is None)
+    branch = max((module.length for module in device.modules if module.attach_to is not None),
+                 default=0.0)
     return main + branch

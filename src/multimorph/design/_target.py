@@ -285,8 +285,8 @@ def target_from_spec(spec: Mapping[str, Any]) -> TargetSpec:
         raise SpecError("target spec: needs at least one [[stage]] table")
     if not isinstance(raw_stages, Sequence) or isinstance(raw_stages, str | bytes):
         raise SpecError("target spec: 'stage' must be an array of tables ([[stage]])")
-    stages = tuple(_stage(i, s) for i, s in enumerate(raw_stages))
-    names = [s.name for s in stages]
+    stages = tuple(_stage(i, stage) for i, stage in enumerate(raw_stages))
+    names = [stage.name for stage in stages]
     dup = sorted({n for n in names if names.count(n) > 1})
     if dup:
         raise SpecError(f"stage names must be unique; repeated: {', '.join(dup)}")
@@ -315,12 +315,12 @@ def target_from_spec(spec: Mapping[str, Any]) -> TargetSpec:
     if isinstance(mats_raw, str | Mapping):
         mats_raw = [mats_raw]
     materials = []
-    for j, m in enumerate(mats_raw):
-        mat = material_from_spec(m, f"constraints.materials[{j}]")
-        if isinstance(m, Mapping) and "name" not in m:
+    for j, raw in enumerate(mats_raw):
+        mat = material_from_spec(raw, f"constraints.materials[{j}]")
+        if isinstance(raw, Mapping) and "name" not in raw:
             mat = mat.with_name(f"material{j + 1}")
         materials.append(mat)
-    mnames = [m.name for m in materials]
+    mnames = [raw.name for raw in materials]
     if len(set(mnames)) != len(mnames):
         raise SpecError(f"constraints.materials: names must be unique, got {mnames}")
     check_pressure_scale(pmax, max(m.shear_modulus for m in materials),
@@ -397,21 +397,21 @@ def graded_target(target: TargetSpec, max_ratio: float = GRADED_RATIO) -> Target
     if not max_ratio > 1.0:
         raise SpecError(f"graded_ratio must exceed 1, got {max_ratio!r}")
     out: list[Stage] = []
-    for st in target.stages:
-        s0 = st.start_pressure
-        ratio = st.end_pressure / s0 if s0 else 1.0
-        if s0 is None or st.count > 1 or ratio <= max_ratio * (1.0 + 1e-9):
-            out.append(st)
+    for stage in target.stages:
+        s0 = stage.start_pressure
+        ratio = stage.end_pressure / s0 if s0 else 1.0
+        if s0 is None or stage.count > 1 or ratio <= max_ratio * (1.0 + 1e-9):
+            out.append(stage)
             continue
         n = math.ceil(math.log(ratio) / math.log(max_ratio) - 1e-9)
         edges = [s0 * ratio ** (k / n) for k in range(n + 1)]
         for k in range(n):
-            out.append(replace(st, name=f"{st.name}-{k + 1}", magnitude=st.magnitude / n,
+            out.append(replace(stage, name=f"{stage.name}-{k + 1}", magnitude=stage.magnitude / n,
                                start_pressure=edges[k], end_pressure=edges[k + 1],
-                               part_of=st.name))
+                               part_of=stage.name))
     if len(out) == len(target.stages):
         return target
-    names = [s.name for s in out]
+    names = [part.name for part in out]
     clash = sorted({n for n in names if names.count(n) > 1})
     if clash:
         raise SpecError(f"graded stages: part name(s) {', '.join(clash)} collide with a stage "

@@ -31,7 +31,7 @@ def fe_available() -> tuple[bool, str]:
     try:
         import felupe  # noqa: F401
 
-        from multimorph.fe._deps import MissingExtraError  # noqa: F401
+        from multimorph.fe import MissingExtraError  # noqa: F401
     except ImportError as exc:
         return False, (f"the FE dependencies are not installed ({exc}); install "
                        "'multimorph[fe]'")
@@ -60,7 +60,7 @@ def verify_fe(target: TargetSpec, design: Evaluation, *, mesh: str = "coarse",
 
     p_max = target.constraints.max_pressure
     out: dict[str, Any] = {}
-    for i, st in enumerate(target.stages):
+    for i, stage in enumerate(target.stages):
         cell = design.candidate.cells[i]
         r_rom = design.responses[i]
         res = fe.simulate_cell(cell, fe.FESettings(mesh=mesh, p_max=p_max))
@@ -72,7 +72,7 @@ def verify_fe(target: TargetSpec, design: Evaluation, *, mesh: str = "coarse",
             a, b = getattr(ch_rom, key), getattr(ch_fe, key)
             row[key] = {"rom": a, "fe": b,
                         "relative_difference": None if a is None or b is None else (b - a) / a}
-        out[st.name] = row
+        out[stage.name] = row
         if progress is not None:
             progress(i + 1, len(target.stages))
     return out

@@ -87,25 +87,25 @@ class Device:
             raise SpecError("device: needs at least one [[module]]")
         if not (math.isfinite(self.pmax) and self.pmax > 0):
             raise SpecError(f"device.pmax: must be a positive pressure, got {self.pmax!r} Pa")
-        names = [m.name for m in mods]
+        names = [module.name for module in mods]
         dup = sorted({n for n in names if names.count(n) > 1})
         if dup:
             raise SpecError(f"device: module names must be unique; repeated: {', '.join(dup)}")
-        for m in mods:
-            if m.attach_to is not None and m.attach_to not in names:
-                raise SpecError(f"module {m.name!r}: attach_to {m.attach_to!r} is not a module "
-                                f"of this device (modules: {', '.join(names)})")
-            if m.attach_to == m.name:
-                raise SpecError(f"module {m.name!r}: cannot attach to itself")
+        for module in mods:
+            if module.attach_to is not None and module.attach_to not in names:
+                raise SpecError(f"module {module.name!r}: attach_to {module.attach_to!r} is not a "
+                                f"module of this device (modules: {', '.join(names)})")
+            if module.attach_to == module.name:
+                raise SpecError(f"module {module.name!r}: cannot attach to itself")
         by_branch: dict[str, list[Module]] = {}
-        for m in mods:
-            by_branch.setdefault(m.branch, []).append(m)
+        for module in mods:
+            by_branch.setdefault(module.branch, []).append(module)
         for branch, ms in by_branch.items():
-            parents = {m.attach_to for m in ms if m.attach_to is not None}
+            parents = {module.attach_to for module in ms if module.attach_to is not None}
             if len(parents) > 1:
                 raise SpecError(f"branch {branch!r}: its modules attach to different parents "
                                 f"{sorted(str(p) for p in parents)}; give each branch one parent")
-            ordered = sorted(ms, key=lambda m: m.start)
+            ordered = sorted(ms, key=lambda module: module.start)
             for a, b in itertools.pairwise(ordered):
                 if b.start < a.end - 1e-12:
                     raise SpecError(
@@ -114,10 +114,10 @@ class Device:
                         f"{b.name!r} starts at {b.start * 1e3:.4g} mm")
         # no cycles through attach_to
         parent: dict[str, str | None] = {}
-        for m in mods:
-            if parent.get(m.branch) is None:
-                parent[m.branch] = m.attach_to
-        branch_of = {m.name: m.branch for m in mods}
+        for module in mods:
+            if parent.get(module.branch) is None:
+                parent[module.branch] = module.attach_to
+        branch_of = {module.name: module.branch for module in mods}
         for b in parent:
             seen = {b}
             cur = parent[b]
@@ -129,17 +129,17 @@ class Device:
                 cur = parent[nb]
 
     def module(self, name: str) -> Module:
-        for m in self.modules:
-            if m.name == name:
-                return m
+        for module in self.modules:
+            if module.name == name:
+                return module
         raise SpecError(f"no module named {name!r}")
 
     def branches(self) -> dict[str, list[Module]]:
         """Modules per branch, in order along the branch."""
         out: dict[str, list[Module]] = {}
-        for m in self.modules:
-            out.setdefault(m.branch, []).append(m)
-        return {k: sorted(v, key=lambda m: m.start) for k, v in out.items()}
+        for module in self.modules:
+            out.setdefault(module.branch, []).append(module)
+        return {k: sorted(v, key=lambda module: module.start) for k, v in out.items()}
 
 
 def _length(v: Any, field_: str, *, allow_zero: bool = False) -> float:
@@ -233,20 +233,20 @@ def device_from_spec(spec: Mapping[str, Any]) -> Device:
         raise SpecError("device spec: 'module' must be an array of tables ([[module]])")
     modules: list[Module] = []
     cursor: dict[str, float] = {}
-    for i, m in enumerate(raw_modules):
+    for i, raw in enumerate(raw_modules):
         where = f"module[{i}]"
-        if not isinstance(m, Mapping):
+        if not isinstance(raw, Mapping):
             raise SpecError(f"{where}: expected a table")
-        name = m.get("name")
+        name = raw.get("name")
         if not isinstance(name, str) or not name:
             raise SpecError(f"{where}.name: missing (a unique module name)")
         where = f"module {name!r}"
-        extra = sorted(set(m) - _MODULE_KEYS)
+        extra = sorted(set(raw) - _MODULE_KEYS)
         if extra:
             raise SpecError(f"{where}: unknown key(s) {', '.join(extra)}")
-        if "kind" not in m:
+        if "kind" not in raw:
             raise SpecError(f"{where}.kind: missing (bending, stretching or twisting)")
-        c = m.get("cell")
+        c = raw.get("cell")
         if c is None:
             raise SpecError(f"{where}.cell: missing (a [cells.*] name or an inline table)")
         if isinstance(c, str):
@@ -256,29 +256,29 @@ def device_from_spec(spec: Mapping[str, Any]) -> Device:
             cell = cells[c]
         else:
             cell = cell_of(c, f"{where}.cell")
-        default_branch = f"{name}-branch" if m.get("attach_to") else "main"
-        branch = str(m.get("branch", default_branch))
-        if "start" in m:
-            start = _length(m["start"], f"{where}.start", allow_zero=True)
+        default_branch = f"{name}-branch" if raw.get("attach_to") else "main"
+        branch = str(raw.get("branch", default_branch))
+        if "start" in raw:
+            start = _length(raw["start"], f"{where}.start", allow_zero=True)
         else:
             start = cursor.get(branch, 0.0)
-        counts = {attr: _count(m.get(key, default), f"{where}.{key}", attr, limit, cell)
+        counts = {attr: _count(raw.get(key, default), f"{where}.{key}", attr, limit, cell)
                   for key, attr, default, limit in (
                       ("cells", "n_cells", 1, MAX_CELLS_PER_MODULE),
                       ("count", "count", 1, MAX_COPIES),
                       ("strips", "strips", 3, MAX_COPIES))}
         kw: dict[str, Any] = dict(
-            name=name, kind=str(m["kind"]), cell=cell, branch=branch,
-            attach_to=m.get("attach_to"), start=start, **counts,
+            name=name, kind=str(raw["kind"]), cell=cell, branch=branch,
+            attach_to=raw.get("attach_to"), start=start, **counts,
         )
-        if "radius" in m:
-            kw["radius"] = _length(m["radius"], f"{where}.radius", allow_zero=True)
-        if "orientation" in m:
-            kw["orientation"] = _angle(m["orientation"], f"{where}.orientation")
-        if "tilt" in m:
-            kw["tilt"] = _angle(m["tilt"], f"{where}.tilt")
-        if "shaft_radius" in m:
-            kw["shaft_radius"] = _length(m["shaft_radius"], f"{where}.shaft_radius")
+        if "radius" in raw:
+            kw["radius"] = _length(raw["radius"], f"{where}.radius", allow_zero=True)
+        if "orientation" in raw:
+            kw["orientation"] = _angle(raw["orientation"], f"{where}.orientation")
+        if "tilt" in raw:
+            kw["tilt"] = _angle(raw["tilt"], f"{where}.tilt")
+        if "shaft_radius" in raw:
+            kw["shaft_radius"] = _length(raw["shaft_radius"], f"{where}.shaft_radius")
         module = Module(**kw)
         cursor[branch] = max(cursor.get(branch, 0.0), module.end)
         modules.append(module)

@@ -92,15 +92,15 @@ class SequenceReport:
         }
 
 
-def _normalised_rate(p: np.ndarray, m: np.ndarray, grid: np.ndarray) -> np.ndarray:
+def _normalised_rate(p: np.ndarray, magnitude: np.ndarray, grid: np.ndarray) -> np.ndarray:
     order = np.argsort(p, kind="stable")
-    p, m = p[order], np.abs(m[order])
+    p, magnitude = p[order], np.abs(magnitude[order])
     p, idx = np.unique(p, return_index=True)
-    m = m[idx]
-    span = float(np.max(m) - np.min(m)) if m.size else 0.0
-    if m.size < 2 or span <= 0:
+    magnitude = magnitude[idx]
+    span = float(np.max(magnitude) - np.min(magnitude)) if magnitude.size else 0.0
+    if magnitude.size < 2 or span <= 0:
         return np.zeros_like(grid)
-    mg = np.interp(grid, p, m, left=m[0], right=m[-1]) / span
+    mg = np.interp(grid, p, magnitude, left=magnitude[0], right=magnitude[-1]) / span
     return np.gradient(mg, grid)
 
 
@@ -181,7 +181,7 @@ def analyse_sequence(curves: Sequence[ModuleCurve], *, tolerance: float = 0.10,
         else:
             stages.append([c])
     # same-stage modules (identical windows) share their bands
-    stage_of = {c.name: i for i, st in enumerate(stages) for c in st}
+    stage_of = {c.name: i for i, stage in enumerate(stages) for c in stage}
     for b in merged:
         b["stage"] = stage_of[b["module"]]
     margins: list[dict[str, Any]] = []
@@ -206,7 +206,7 @@ def analyse_sequence(curves: Sequence[ModuleCurve], *, tolerance: float = 0.10,
                        key=lambda n: -release[n])  # type: ignore[operator]
     return SequenceReport(
         order=[c.name for c in order],
-        stages=[[c.name for c in st] for st in stages],
+        stages=[[c.name for c in stage] for stage in stages],
         windows=windows,
         bands=merged,
         margins=margins,

@@ -33,9 +33,9 @@ def default_cell_model(cell: CellGeometry, p_max: float) -> Response:
 
 
 def _rot_y(angle: float) -> np.ndarray:
-    c, s = math.cos(angle), math.sin(angle)
+    cos_a, sin_a = math.cos(angle), math.sin(angle)
     T = np.eye(4)
-    T[:3, :3] = [[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]]
+    T[:3, :3] = [[cos_a, 0.0, sin_a], [0.0, 1.0, 0.0], [-sin_a, 0.0, cos_a]]
     return T
 
 
@@ -70,10 +70,10 @@ class DeviceResult:
         lines: dict[str, np.ndarray] = {}
 
         def seg(mod_name: str) -> RodStrains:
-            st = self.module_state(mod_name, pressure)
-            m = dev.module(mod_name)
-            return RodStrains.bend_twist(m.length, bend=st["bend"], twist=st["twist"],
-                                         stretch=st["stretch"])
+            state = self.module_state(mod_name, pressure)
+            module = dev.module(mod_name)
+            return RodStrains.bend_twist(module.length, bend=state["bend"], twist=state["twist"],
+                                         stretch=state["stretch"])
 
         pending = list(branches)
         guard = 0
@@ -83,7 +83,7 @@ class DeviceResult:
                 raise RuntimeError("branch ordering did not converge")
             b = pending.pop(0)
             mods = branches[b]
-            parent = next((m.attach_to for m in mods if m.attach_to), None)
+            parent = next((module.attach_to for module in mods if module.attach_to), None)
             if parent is not None and parent not in end_frame:
                 pending.append(b)
                 continue
@@ -92,31 +92,32 @@ class DeviceResult:
             for j in range(count):
                 T = base @ _rot_y(2.0 * math.pi * j / count)
                 T = T @ _shift(np.array([0.0, 0.0, mods[0].radius]))
-                for m in mods:
+                for module in mods:
                     T_start = T @ _shift(np.array([0.0, 0.0, 0.0]))
-                    Tm = T_start @ _rot_y(m.orientation)
-                    s = seg(m.name)
-                    n = max(2, points_per_cell * m.n_cells)
-                    pts = centerline([s], points_per_segment=n, base=Tm)
-                    key = m.name if m.count == 1 else f"{m.name}#{j}"
+                    Tm = T_start @ _rot_y(module.orientation)
+                    segment = seg(module.name)
+                    n = max(2, points_per_cell * module.n_cells)
+                    pts = centerline([segment], points_per_segment=n, base=Tm)
+                    key = module.name if module.count == 1 else f"{module.name}#{j}"
                     lines[key] = pts
-                    T = Tm @ segment_transform(s) @ _rot_y(-m.orientation)
+                    T = Tm @ segment_transform(segment) @ _rot_y(-module.orientation)
                     if j == 0:
-                        end_frame[m.name] = T
+                        end_frame[module.name] = T
         return lines
 
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {"device": self.device.name, "pmax": self.pmax,
                                "modules": {}, "sequence": self.sequence.to_dict()}
-        for name, s in self.strains.items():
-            ch = s.response.characteristic
-            m = s.module
+        for name, strain in self.strains.items():
+            ch = strain.response.characteristic
+            module = strain.module
             out["modules"][name] = {
-                "kind": m.kind, "mode": m.mode, "cells": m.n_cells, "count": m.count,
-                "length": m.length, "shear_modulus": s.response.shear_modulus,
+                "kind": module.kind, "mode": module.mode, "cells": module.n_cells,
+                "count": module.count, "length": module.length,
+                "shear_modulus": strain.response.shear_modulus,
                 **ch.to_dict(),
-                "pressure": s.pressure, "bend": s.bend, "twist": s.twist,
-                "stretch": s.stretch, "measure": s.measure,
+                "pressure": strain.pressure, "bend": strain.bend, "twist": strain.twist,
+                "stretch": strain.stretch, "measure": strain.measure,
             }
         return out
 
@@ -132,22 +133,23 @@ def simulate_device(device: Device, p_max: float | None = None, *,
     cache: dict[int, Response] = {}
     keys: dict[int, CellGeometry] = {}
     strains: dict[str, ModuleStrains] = {}
-    for m in device.modules:
-        cell = m.cell
+    for module in device.modules:
+        cell = module.cell
         key = next((k for k, c in keys.items() if c == cell), None)
         if key is None:
             key = len(keys)
             keys[key] = cell
             cache[key] = model(cell, p_max)
-        strains[m.name] = module_strains(m, cache[key])
+        strains[module.name] = module_strains(module, cache[key])
     curves = [
-        ModuleCurve(name=n, mode=s.module.mode, pressure=s.pressure, measure=s.measure,
-                    critical=s.response.characteristic.critical,
-                    hardening=s.response.characteristic.hardening,
-                    failure=s.response.characteristic.failure,
-                    unloading_pressure=s.unloading_pressure,
-                    unloading_measure=s.unloading_measure)
-        for n, s in strains.items()
+        ModuleCurve(name=n, mode=strain.module.mode, pressure=strain.pressure,
+                    measure=strain.measure,
+                    critical=strain.response.characteristic.critical,
+                    hardening=strain.response.characteristic.hardening,
+                    failure=strain.response.characteristic.failure,
+                    unloading_pressure=strain.unloading_pressure,
+                    unloading_measure=strain.unloading_measure)
+        for n, strain in strains.items()
     ]
     return DeviceResult(device=device, pmax=p_max, strains=strains,
                         sequence=analyse_sequence(curves))

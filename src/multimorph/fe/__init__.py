@@ -9,51 +9,69 @@ faces, pressure-controlled stepping with cutbacks and arc-length continuation th
 limit points, measurements from node coordinates, and the shared
 :class:`~multimorph.response.Response` (``backend="fe"``).
 
+Four sub-packages, imported one way (mesh, engine → analyses → report):
+:mod:`~multimorph.fe.mesh` (the hexahedral meshes), :mod:`~multimorph.fe.engine` (problem,
+material adapter, linear solvers, the one path driver, checkpoints),
+:mod:`~multimorph.fe.analyses` (cell, device and twisting module on one run skeleton, their
+measurements, ROM vs FE, the route of one run) and :mod:`~multimorph.fe.report` (files,
+plots, solids). This package re-exports the names most callers need.
+
 Heavy dependencies are imported inside functions; a missing one raises
 :class:`MissingExtraError` naming ``multimorph[fe]``.
 """
 
-from multimorph.fe._cell import (
+from multimorph.fe._deps import MissingExtraError
+from multimorph.fe.analyses import (
     CELL_ENDS,
-    FEResult,
-    FESettings,
-    build_cell_problem,
-    simulate_cell,
-)
-from multimorph.fe._checkpoint import PathCheckpoint
-from multimorph.fe._compare import (
     Comparison,
+    FEDeviceResult,
+    FEResult,
+    FETwistResult,
     ShearComparison,
+    bend_and_twist,
+    build_cell_problem,
+    chamber_volume,
+    circle_fit_curvature,
     compare_cell,
+    compare_device,
     compare_responses,
     compare_shear,
     compare_shear_responses,
+    compare_twisting,
+    line_stretch,
+    peak_stretch,
+    simulate_cell,
+    simulate_device,
+    simulate_twisting_module,
+    strip_strain,
 )
-from multimorph.fe._deps import MissingExtraError
-from multimorph.fe._device import (
+from multimorph.fe.engine import (
+    FESettings,
+    LinearSolver,
+    NonFiniteSystemError,
+    PathCheckpoint,
+    PathPoint,
+    PathRun,
+    PressureProblem,
+    continuation,
+    make_solver,
+    newton,
+    pressure_control,
+)
+from multimorph.fe.mesh import (
     FE_MODULE_KINDS,
+    MESH_PRESETS,
+    CellMesh,
     DeviceMesh,
-    FEDeviceResult,
-    compare_device,
+    MeshDensity,
+    TwistMesh,
+    cell_mesh,
     device_mesh,
     fe_device_branches,
     fe_device_modules,
-    simulate_device,
+    resolve_density,
+    twisting_module_mesh,
 )
-from multimorph.fe._linsolve import LinearSolver, NonFiniteSystemError, make_solver
-from multimorph.fe._measure import (
-    bend_and_twist,
-    chamber_volume,
-    circle_fit_curvature,
-    line_stretch,
-    peak_stretch,
-    strip_strain,
-)
-from multimorph.fe._mesh import MESH_PRESETS, CellMesh, MeshDensity, cell_mesh, resolve_density
-from multimorph.fe._problem import PressureProblem
-from multimorph.fe._solve import PathPoint, PathRun, continuation, newton, pressure_control
-from multimorph.fe._twist import FETwistResult, compare_twisting, simulate_twisting_module
-from multimorph.fe._twist_mesh import TwistMesh, twisting_module_mesh
 
 __all__ = [
     "CELL_ENDS",

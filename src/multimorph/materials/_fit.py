@@ -38,6 +38,7 @@ from multimorph.materials._loadcases import (
 from multimorph.materials._material import Material, Provenance
 from multimorph.materials._readers import LoadCurve, TestData, as_curves
 from multimorph.materials._registry import Law, get_law
+from multimorph.outcome import Outcome
 
 __all__ = ["CaseStats", "FitResult", "fit_material"]
 
@@ -92,9 +93,10 @@ class FitResult:
         The fitted material (with :class:`Provenance`: data file, fit range and error).
     params, stderr : mapping
         Fitted parameters and their standard errors (SI: Pa or -).
-    status : str
-        ``"converged"``, ``"at_bound"`` (converged with a parameter on a bound, named in
-        :attr:`message`), ``"max_evaluations"`` or ``"failed"``.
+    status : Outcome
+        ``CONVERGED``, ``AT_BOUND`` (converged with a parameter on a bound, named in
+        :attr:`message`), ``MAX_EVALUATIONS`` or ``FAILED``
+        (:class:`~multimorph.outcome.Outcome`; strings ``"converged"`` … in JSON).
     per_case : dict of CaseStats
         R², relative RMS, median relative error per load case.
     relative_rms, median_relative_error : float
@@ -106,7 +108,7 @@ class FitResult:
     material: Material
     params: Mapping[str, float]
     stderr: Mapping[str, float]
-    status: str
+    status: Outcome
     message: str
     residual: str
     residual_definition: str
@@ -123,7 +125,8 @@ class FitResult:
 
     @property
     def success(self) -> bool:
-        return self.status in ("converged", "at_bound")
+        """Whether the fit converged (also with a parameter on a bound)."""
+        return self.status.ok
 
     @property
     def model(self) -> str:
@@ -214,11 +217,11 @@ def _mu_estimate(curves: Sequence[LoadCurve]) -> float:
     est = []
     for c in curves:
         lam, p = c.stretch, c.stress
-        g = _nh_shape(c.case, lam)
-        ok = (np.abs(g) > 1e-9) & (p > 0)
+        shape = _nh_shape(c.case, lam)
+        ok = (np.abs(shape) > 1e-9) & (p > 0)
         if not np.any(ok):
             continue
-        lam_ok, ratio = lam[ok], p[ok] / g[ok]
+        lam_ok, ratio = lam[ok], p[ok] / shape[ok]
         small = lam_ok <= max(1.5, float(np.quantile(lam_ok, 0.25)))
         est.append(float(np.median(ratio[small] if small.sum() >= 3 else ratio)))
     if not est:
@@ -227,7 +230,7 @@ def _mu_estimate(curves: Sequence[LoadCurve]) -> float:
 
 
 def _starts(law: Law, mu0: float, jm_min: float) -> list[dict[str, float]]:
-    g = law.guess(mu0)
+    base = law.guess(mu0)
     fam = law.family
     if fam == "gent":
         return [{"mu": mu0, "jm": jm} for jm in (max(1.5 * jm_min, 5.0), max(4 * jm_min, 30.0),
@@ -235,14 +238,14 @@ def _starts(law: Law, mu0: float, jm_min: float) -> list[dict[str, float]]:
     if fam == "arruda-boyce":
         return [{"mu": 0.9 * mu0, "lambda_m": lm} for lm in (2.5, 5.0, 12.0)]
     if fam in ("reduced-polynomial", "yeoh"):
-        zero = {k: (0.0 if k != "c10" else mu0 / 2) for k in g}
-        return [g, zero]
+        zero = {k: (0.0 if k != "c10" else mu0 / 2) for k in base}
+        return [base, zero]
     if fam == "mooney-rivlin":
-        return [g, {"c10": 0.5 * mu0, "c01": 0.0}]
+        return [base, {"c10": 0.5 * mu0, "c01": 0.0}]
     if fam == "ogden":
-        alt = {k: (v * 0.5 if k.startswith("alpha") and abs(v) > 2 else v) for k, v in g.items()}
-        return [g, alt]
-    return [g]
+        alt = {k: (v * 0.5 if k.startswith("alpha") and abs(v) > 2 else v) for k, v in base.items()}
+        return [base, alt]
+    return [base]
 
 
 def _clip_inside(x: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
@@ -317,7 +320,7 @@ def fit_material(
     >>> lam = np.linspace(1.1, 3.0, 12)
     >>> true = Material("gent", {"mu": 2e5, "jm": 30.0})
     >>> res = fit_material("gent", {"uniaxial": (lam, true.nominal_stress("uniaxial", lam))})
-    >>> res.status, round(res.params["mu"]), round(res.params["jm"], 3)
+    >>> str(res.status), round(res.params["mu"]), round(res.params["jm"], 3)
     ('converged', 200000, 30.0)
     """
     from scipy.optimize import least_squares
@@ -402,9 +405,9 @@ def fit_material(
     best = None
     nfev = 0
     messages = []
-    for s in starts:
+    for start in starts:
         try:
-            x0 = np.array([float(s[k]) for k in names]) / scale
+            x0 = np.array([float(start[k]) for k in names]) / scale
         except KeyError as exc:
             raise SpecError(f"initial parameters for {law.name} need {exc.args[0]!r}") from None
         x0 = _clip_inside(x0, lower_s, upper_s)
@@ -441,13 +444,13 @@ def fit_material(
 
     at_bound = [k for k, a in zip(names, best.active_mask, strict=True) if a != 0]
     if best.status > 0:
-        status = "at_bound" if at_bound else "converged"
+        status = Outcome.AT_BOUND if at_bound else Outcome.CONVERGED
         message = best.message + (f" Parameter(s) on a bound: {', '.join(at_bound)}."
                                   if at_bound else "")
     elif best.status == 0:
-        status, message = "max_evaluations", best.message
+        status, message = Outcome.MAX_EVALUATIONS, best.message
     else:
-        status, message = "failed", best.message
+        status, message = Outcome.FAILED, best.message
 
     data_name = name if name is not None else (data.name if isinstance(data, TestData) else "")
     break_stretch = None

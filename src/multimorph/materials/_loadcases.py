@@ -19,7 +19,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cache
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import jax
 import jax.numpy as jnp
@@ -29,11 +29,24 @@ from multimorph.errors import SpecError
 from multimorph.materials._math import JAX_MATH
 from multimorph.materials._registry import Law, get_law
 
-if TYPE_CHECKING:
-    from multimorph.materials._material import Material
+
+class LoadCaseMaterial(Protocol):
+    """What a load case needs of a material (:class:`~multimorph.materials.Material` is
+    one): its law, its parameters in the Ogden 1972 convention and the lock-up guard."""
+
+    model: str
+
+    @property
+    def params_1972(self) -> dict[str, float]: ...
+
+    def lockup_fraction(self, l1: Any, l2: Any, l3: Any) -> np.ndarray: ...
+
+    def check_lockup(self, l1: Any, l2: Any, l3: Any, what: str = "") -> None: ...
+
 
 __all__ = [
     "LOAD_CASES",
+    "LoadCaseMaterial",
     "StabilityReport",
     "drucker_stability",
     "nominal_stress",
@@ -98,7 +111,7 @@ def stress_function(model: str, case: str) -> Callable[[dict[str, Any], Any], An
     return f
 
 
-def nominal_stress(material: Material, case: str, stretch: Any) -> np.ndarray:
+def nominal_stress(material: LoadCaseMaterial, case: str, stretch: Any) -> np.ndarray:
     """Nominal (first Piola–Kirchhoff) stress (Pa) of ``material`` in ``case``.
 
     Parameters
@@ -125,7 +138,7 @@ def nominal_stress(material: Material, case: str, stretch: Any) -> np.ndarray:
     lam = np.asarray(stretch, dtype=float)
     if np.any(~(lam > 0)):
         raise SpecError(f"{case}: stretches must be positive numbers")
-    material.check_lockup(*(np.asarray(s) for s in stretches(case, lam)), what=case)
+    material.check_lockup(*(np.asarray(stretch_i) for stretch_i in stretches(case, lam)), what=case)
     out = stress_function(material.model, case)(material.params_1972, lam)
     return np.asarray(out)
 
@@ -178,7 +191,7 @@ def _drucker_eigs(model: str) -> Callable[[dict[str, Any], Any], Any]:
 
 
 def drucker_stability(
-    material: Material,
+    material: LoadCaseMaterial,
     stretch_range: tuple[float, float] = (0.1, 10.0),
     n: int = 400,
 ) -> StabilityReport:

@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from multimorph.errors import LockupError, SpecError
+from multimorph.materials._loadcases import nominal_stress
 from multimorph.materials._math import JAX_MATH
 from multimorph.materials._registry import Law, get_law
 
@@ -254,8 +255,6 @@ class Material:
 
     def nominal_stress(self, case: str, stretch: Any) -> np.ndarray:
         """Nominal stress (Pa) in a homogeneous load case; see :mod:`.loadcases`."""
-        from multimorph.materials._loadcases import nominal_stress
-
         return nominal_stress(self, case, stretch)
 
     # ------------------------------------------------------------------ (de)serialise

@@ -345,13 +345,13 @@ def _lines(numbers: list[int]) -> str:
 
 # --------------------------------------------------------------------------- Marechal
 def _float(p: Path, lineno: int, cell: str, what: str) -> float:
-    s = cell.strip()
+    text = cell.strip()
     try:
-        v = float(s)
+        v = float(text)
     except ValueError:
-        raise DataFileError(p, f"{what}: {s!r} is not a number", lineno) from None
+        raise DataFileError(p, f"{what}: {text!r} is not a number", lineno) from None
     if not math.isfinite(v):
-        raise DataFileError(p, f"{what}: {s!r} is not a finite number", lineno)
+        raise DataFileError(p, f"{what}: {text!r} is not a finite number", lineno)
     return v
 
 
@@ -387,11 +387,11 @@ def _read_marechal(p: Path, lines: list[str], case: str | None) -> TestData:
             raise DataFileError(p, f"expected 5 ';'-separated columns, found {len(cells)}",
                                 i + 1)
         e = _float(p, i + 1, cells[3], "Engineering Strain")
-        s = _float(p, i + 1, cells[4], "Engineering Stress (MPa)")
+        stress_mpa = _float(p, i + 1, cells[4], "Engineering Stress (MPa)")
         _check_stretch(p, i + 1, 1.0 + e, lam[-1] if lam else None)
-        rows.add(i + 1, tuple(c.strip() for c in cells), "uniaxial", 1.0 + e, s * 1e6)
+        rows.add(i + 1, tuple(c.strip() for c in cells), "uniaxial", 1.0 + e, stress_mpa * 1e6)
         lam.append(1.0 + e)
-        stress.append(s * 1e6)
+        stress.append(stress_mpa * 1e6)
     if not lam:
         raise DataFileError(p, "no data rows after the column header", header_at + 1)
     for key in ("Specimen Thickness (mm)", "Thickness (mm)", "Specimen Width (mm)",
@@ -436,11 +436,11 @@ class _Column:
 
 def _split_name(name: str) -> tuple[str, str | None]:
     """Split a header cell into a lower-case base name and a unit string (or None)."""
-    s = name.strip().strip('"').strip()
-    m = re.search(r"[\(\[]\s*([^\)\]]*?)\s*[\)\]]\s*$", s)
-    if m:
-        return s[: m.start()].strip().lower(), m.group(1)
-    low = s.lower().replace(" ", "_")
+    text = name.strip().strip('"').strip()
+    match = re.search(r"[\(\[]\s*([^\)\]]*?)\s*[\)\]]\s*$", text)
+    if match:
+        return text[: match.start()].strip().lower(), match.group(1)
+    low = text.lower().replace(" ", "_")
     parts = low.split("_")
     if len(parts) > 1 and parts[-1] in _UNIT_ALIASES:
         return "_".join(parts[:-1]), parts[-1]
@@ -506,12 +506,12 @@ def _specimen_from_comments(p: Path, lines: list[str]) -> Specimen:
 
     found: dict[str, float] = {}
     for i, line in enumerate(lines):
-        m = re.match(r"\s*#\s*(?:specimen\s+)?([A-Za-z _]+?)\s*[:=]\s*(.+?)\s*$", line)
-        if not m or m.group(1).strip().lower() not in _SPECIMEN_KEYS:
+        hit = re.match(r"\s*#\s*(?:specimen\s+)?([A-Za-z _]+?)\s*[:=]\s*(.+?)\s*$", line)
+        if not hit or hit.group(1).strip().lower() not in _SPECIMEN_KEYS:
             continue
-        key = _SPECIMEN_KEYS[m.group(1).strip().lower()]
+        key = _SPECIMEN_KEYS[hit.group(1).strip().lower()]
         try:
-            found[key] = to_si(m.group(2), "m", field=key.replace("_", " "))
+            found[key] = to_si(hit.group(2), "m", field=key.replace("_", " "))
         except SpecError as exc:
             raise DataFileError(p, str(exc), i + 1) from None
     try:

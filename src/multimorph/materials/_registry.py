@@ -107,19 +107,19 @@ def _ogden(n: int) -> Law:
     signs = [1.0, 1.0, -1.0, 1.0, -1.0, 1.0][:n] if n > 1 else [1.0]
     start_alpha = [1.3, 5.0, -2.0, 3.0, -4.0, 8.0][:n] if n > 1 else [2.0]
     names = tuple(f"mu{i}" for i in range(1, n + 1)) + tuple(f"alpha{i}" for i in range(1, n + 1))
-    lower = tuple(0.0 if s > 0 else -INF for s in signs) + tuple(
-        0.05 if s > 0 else -30.0 for s in signs)
-    upper = tuple(INF if s > 0 else 0.0 for s in signs) + tuple(
-        30.0 if s > 0 else -0.05 for s in signs)
+    lower = tuple(0.0 if sign > 0 else -INF for sign in signs) + tuple(
+        0.05 if sign > 0 else -30.0 for sign in signs)
+    upper = tuple(INF if sign > 0 else 0.0 for sign in signs) + tuple(
+        30.0 if sign > 0 else -0.05 for sign in signs)
 
     def guess(mu: float) -> dict[str, float]:
         weights = [1.0, 0.002, 0.016, 0.001, 0.001, 1e-4][:n] if n > 1 else [1.0]
-        g: dict[str, float] = {}
+        first: dict[str, float] = {}
         for i, (w, a) in enumerate(zip(weights, start_alpha, strict=True), start=1):
-            g[f"mu{i}"] = 2 * mu * w / abs(a) * (1 if a > 0 else -1) * (1.5 if i == 1 else 1)
+            first[f"mu{i}"] = 2 * mu * w / abs(a) * (1 if a > 0 else -1) * (1.5 if i == 1 else 1)
         for i, a in enumerate(start_alpha, start=1):
-            g[f"alpha{i}"] = a
-        return g
+            first[f"alpha{i}"] = a
+        return first
 
     return Law(
         name=f"ogden-{n}",
@@ -179,9 +179,9 @@ def get_law(model: str, order: int | None = None) -> Law:
     key = str(model).strip().lower().replace("_", "-").replace(" ", "-")
     key = {"neohooke": "neo-hooke", "neo-hookean": "neo-hooke", "mooneyrivlin": "mooney-rivlin",
            "arrudaboyce": "arruda-boyce", "reduced-polynomial": "reduced-polynomial"}.get(key, key)
-    m = re.fullmatch(r"(reduced-polynomial|ogden)(?:-(\d+))?", key)
-    if m:
-        family, suffix = m.group(1), m.group(2)
+    match = re.fullmatch(r"(reduced-polynomial|ogden)(?:-(\d+))?", key)
+    if match:
+        family, suffix = match.group(1), match.group(2)
         n = int(suffix) if suffix else order if order is not None else (6 if
                                                                       family.startswith("red")
                                                                       else 3)

@@ -110,9 +110,9 @@ def fit_marechal(stem: str, models: tuple[str, ...] = MODELS,
                       data_file=rel, note=MARECHAL_NOTE)
     name = MARECHAL[stem][0]
     out: dict[str, FitResult] = {}
-    for m in models:
-        res = fit_material(m, data, stretch_range=stretch_max, residual="relative", name=name,
-                           provenance=prov)
+    for law_name in models:
+        res = fit_material(law_name, data, stretch_range=stretch_max, residual="relative",
+                           name=name, provenance=prov)
         if res.success:
             out[res.material.model] = res
     return data, out
@@ -128,8 +128,9 @@ def _treloar() -> dict[str, Any]:
         doi="10.1039/tf9444000059", data_file="materials/data/treloar1944/*.csv",
         note="vulcanised natural rubber (8 % sulphur); joint UT + ET + PS fit")
     models: dict[str, Any] = {}
-    for m in ("gent", "yeoh"):
-        res = fit_material(m, curves, residual="relative", name="treloar-1944", provenance=prov)
+    for law_name in ("gent", "yeoh"):
+        res = fit_material(law_name, curves, residual="relative", name="treloar-1944",
+                           provenance=prov)
         models[res.material.model] = _model_entry(res)
     models["ogden-3"] = {
         "model": "ogden-3",

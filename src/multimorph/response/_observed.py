@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from multimorph.response._types import _PATH_ARRAYS, EquilibriumPath
+from multimorph.response._types import PATH_ARRAYS, EquilibriumPath
 
 __all__ = ["observed_curves", "observed_positions"]
 
@@ -49,13 +49,13 @@ def observed_positions(pressure: np.ndarray, stable: np.ndarray) -> tuple[np.nda
     ([0.0, 1.0, 2.0, 5.5, 6.0, 7.0], [False, False, False, True, False, False], True)
     """
     P = np.asarray(pressure, float)
-    st = np.asarray(stable, bool)
+    stable_mask = np.asarray(stable, bool)
     n = P.shape[0]
     pos, snap = [0.0], [False]
     i = 0
     complete = True
     while i < n - 1:
-        if P[i + 1] > P[i] and st[i + 1]:
+        if P[i + 1] > P[i] and stable_mask[i + 1]:
             pos.append(float(i + 1))
             snap.append(False)
             i += 1
@@ -63,7 +63,7 @@ def observed_positions(pressure: np.ndarray, stable: np.ndarray) -> tuple[np.nda
         p_star = P[i]
         landing = None
         for j in range(i + 1, n - 1):
-            if P[j + 1] > P[j] and st[j + 1] and P[j] <= p_star < P[j + 1]:
+            if P[j + 1] > P[j] and stable_mask[j + 1] and P[j] <= p_star < P[j + 1]:
                 landing = j + (p_star - P[j]) / (P[j + 1] - P[j])
                 break
         if landing is None:
@@ -84,7 +84,7 @@ def _interp_path(path: EquilibriumPath, pos: np.ndarray, snap: np.ndarray) -> Eq
             return np.interp(pos, idx, a)
         return np.stack([np.interp(pos, idx, a[:, k]) for k in range(a.shape[1])], axis=1)
 
-    kw = {name: at(getattr(path, name)) for name in _PATH_ARRAYS if name != "stable"}
+    kw = {name: at(getattr(path, name)) for name in PATH_ARRAYS if name != "stable"}
     kw["stable"] = np.ones(pos.shape[0], bool)
     extra = {k: at(v) for k, v in path.extra.items() if np.asarray(v).dtype != bool}
     extra["snap"] = snap.astype(float)

@@ -14,10 +14,11 @@ import numpy as np
 
 from multimorph.errors import MultimorphError
 
-__all__ = ["CharacteristicPressures", "EquilibriumPath", "Response"]
+__all__ = ["PATH_ARRAYS", "CharacteristicPressures", "EquilibriumPath", "Response"]
 
-_PATH_ARRAYS = ("pressure", "curvature", "twist_rate", "axial_stretch", "volume",
-                "peak_stretch", "stable")
+#: the arrays every equilibrium path has, one value per point
+PATH_ARRAYS = ("pressure", "curvature", "twist_rate", "axial_stretch", "volume",
+               "peak_stretch", "stable")
 
 
 @dataclass(frozen=True, eq=False)
@@ -56,7 +57,7 @@ class EquilibriumPath:
 
     def __post_init__(self) -> None:
         n = None
-        for name in _PATH_ARRAYS:
+        for name in PATH_ARRAYS:
             arr = np.asarray(getattr(self, name), dtype=bool if name == "stable" else float)
             if arr.ndim != 1:
                 raise MultimorphError(f"path.{name}: expected a 1-D array, got shape {arr.shape}")
@@ -78,12 +79,12 @@ class EquilibriumPath:
 
     def take(self, index: Any) -> EquilibriumPath:
         """Sub-path at ``index`` (slice, integer array or boolean mask)."""
-        kw = {name: np.asarray(getattr(self, name))[index] for name in _PATH_ARRAYS}
+        kw = {name: np.asarray(getattr(self, name))[index] for name in PATH_ARRAYS}
         kw["extra"] = {k: np.asarray(v)[index] for k, v in self.extra.items()}
         return EquilibriumPath(**kw)
 
     def to_dict(self) -> dict[str, Any]:
-        d: dict[str, Any] = {name: getattr(self, name).tolist() for name in _PATH_ARRAYS}
+        d: dict[str, Any] = {name: getattr(self, name).tolist() for name in PATH_ARRAYS}
         return d
 
 

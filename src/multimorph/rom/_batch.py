@@ -20,11 +20,11 @@ import numpy as np
 
 from multimorph.errors import SpecError
 from multimorph.geometry import CellGeometry
+from multimorph.outcome import Outcome
 from multimorph.response import EquilibriumPath, Response, build_response
 from multimorph.rom._cell_energy import COORDINATES, GEOMETRY_KEYS, RomOptions, cell_kernel
 from multimorph.rom._continuation import (
     REASON_TEXT,
-    STATUS_TEXT,
     ContinuationError,
     TracerSettings,
     make_tracer,
@@ -32,6 +32,7 @@ from multimorph.rom._continuation import (
 from multimorph.rom._model import (
     DEFAULT_SETTINGS,
     cell_theta,
+    cell_tracer,
     free_settings,
     options_for,
     padded_measures,
@@ -125,7 +126,8 @@ class ResponseBatch:
     count : ndarray (B,)
         Number of valid points per design.
     status : ndarray (B,)
-        0 = reached p_max (see :data:`~multimorph.rom._continuation.STATUS_TEXT`).
+        The :attr:`~multimorph.outcome.Outcome.code` of how each trace ended (0 = reached
+        p_max).
     reason, fail_p : ndarray (B,)
         Why and at which P/μ a failed trace stopped.
     cells : CellBatch
@@ -154,13 +156,13 @@ class ResponseBatch:
     @property
     def ok(self) -> np.ndarray:
         """Designs whose path reached p_max."""
-        return self.status == 0
+        return self.status == Outcome.COMPLETED.code
 
     def message(self, i: int) -> str:
         """Status of design ``i`` in words."""
-        st = int(self.status[i])
-        msg = STATUS_TEXT.get(st, "unknown")
-        if st == 2:
+        outcome = Outcome.from_code(int(self.status[i]))
+        msg = outcome.message
+        if outcome is Outcome.STALLED:
             msg += (f" at P = {self.fail_p[i] * self.cells.mu[i] / 1e3:.4g} kPa: "
                     f"{REASON_TEXT.get(int(self.reason[i]), '')}")
         return msg
@@ -221,9 +223,7 @@ def _batched(wall_law: str, bottom_law: str, options: RomOptions,
 @lru_cache(maxsize=16)
 def _single(wall_law: str, bottom_law: str, options: RomOptions,
             settings: TracerSettings) -> Any:
-    from multimorph.rom._model import _kernels
-
-    ck, tracer, _ = _kernels(wall_law, bottom_law, options, settings)
+    ck, tracer, _ = cell_tracer(wall_law, bottom_law, options, settings)
     return tracer, ck.n_free
 
 

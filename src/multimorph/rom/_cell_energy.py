@@ -67,7 +67,7 @@ class RomOptions:
     side_lean : bool
         Free the side walls' lean ψ (experimental; off by default). 3D FE shows the side
         walls rotating outward about their base corners as the chamber balloons, which
-        widens the top wall's span (docs/fe.md, "ROM vs FE"). With ψ the side-wall chords
+        widens the top wall's span (docs/fe-formulation.md §6). With ψ the side-wall chords
         rotate outward by ψ about their base corners (the arcs φs ride on them), the top
         wall spans wc + 2 hc sin ψ at height hb + hc cos ψ, the chamber section is the
         exact trapezoid, and bending the walls' roots into the floor costs the clamped

@@ -33,10 +33,11 @@ import jax.numpy as jnp
 import numpy as np
 
 from multimorph.errors import MultimorphError
+from multimorph.outcome import Outcome
 from multimorph.rom._kernels import pivots, solve_small
 
 __all__ = [
-    "STATUS_TEXT",
+    "REASON_TEXT",
     "ContinuationError",
     "RawPath",
     "TracerSettings",
@@ -44,13 +45,10 @@ __all__ = [
     "trace_path",
 ]
 
-#: Status codes of a trace.
-STATUS_TEXT = {
-    0: "reached p_max",
-    1: "ran out of continuation steps before p_max (the path is too long to trace up to it)",
-    2: "step size underflow",
-    3: "the reference state is not an equilibrium or not finite",
-}
+# How a trace ends: the integer codes of :class:`~multimorph.outcome.Outcome` in the loop
+# state (a trace runs while its status is MAX_STEPS: it stops at p_max or when out of steps)
+_DONE, _RUNNING = Outcome.COMPLETED.code, Outcome.MAX_STEPS.code
+_UNDERFLOW, _BAD_START = Outcome.STALLED.code, Outcome.BAD_START.code
 #: Why the last step was rejected.
 REASON_TEXT = {
     0: "",
@@ -122,7 +120,8 @@ class RawPath:
     tangent_p : ndarray (m,)
         dp/ds of the unit tangent (changes sign at limit points).
     status : int
-        Key of :data:`STATUS_TEXT` (0 = success).
+        The :attr:`~multimorph.outcome.Outcome.code` of how the trace ended (0: it reached
+        p_max; :attr:`outcome`).
     reason : int
         Why the last rejected step was rejected (:data:`REASON_TEXT`).
     fail_step, fail_p : int, float
@@ -144,15 +143,20 @@ class RawPath:
     n_eval: int = 0
 
     @property
+    def outcome(self) -> Outcome:
+        """How the trace ended."""
+        return Outcome.from_code(self.status)
+
+    @property
     def ok(self) -> bool:
-        return self.status == 0
+        """Whether the trace reached p_max."""
+        return self.outcome is Outcome.COMPLETED
 
     @property
     def message(self) -> str:
-        if self.status == 0:
-            return STATUS_TEXT[0]
-        msg = STATUS_TEXT.get(self.status, "unknown status")
-        if self.status == 2:
+        """How the trace ended, in words (where and why a stalled trace stopped)."""
+        msg = self.outcome.message
+        if self.outcome is Outcome.STALLED:
             msg += (f" at step {self.fail_step}, p = {self.fail_p:.6g}: "
                     f"{REASON_TEXT.get(self.reason, '')}")
         return msg
@@ -295,8 +299,8 @@ def make_tracer(energy: EnergyFn, n: int, settings: TracerSettings,
             TP = jnp.where(hot, tau[n], TP)
             u_new = jnp.where(accept, v, u)
             t_new = jnp.where(accept, tau, t)
-            status_new = jnp.where(reached, 0, jnp.where(
-                underflow, jnp.where(start, 3, 2), status))
+            status_new = jnp.where(reached, _DONE, jnp.where(
+                underflow, jnp.where(start, _BAD_START, _UNDERFLOW), status))
             nv0, nc, ntarget, nfinal = predictor(u_new, t_new, ds_new, k + 1)
 
             def pick(a_done: Any, a_cont: Any) -> Any:
@@ -313,7 +317,7 @@ def make_tracer(energy: EnergyFn, n: int, settings: TracerSettings,
 
         def running(carry: Any) -> Any:
             k, m, status = carry[3], carry[4], carry[5]
-            return (status == 1) & (k < N + 1) & (m < N + 1)
+            return (status == _RUNNING) & (k < N + 1) & (m < N + 1)
 
         U = jnp.zeros((N + 1, n + 1))
         ST = jnp.zeros(N + 1, dtype=bool)
@@ -322,7 +326,7 @@ def make_tracer(energy: EnergyFn, n: int, settings: TracerSettings,
         k0 = jnp.asarray(0)
         v0, c, target, final = predictor(u0, c0, ds0, k0)
         carry0 = (u0, c0, ds0, k0, jnp.asarray(0),
-                  jnp.asarray(1), jnp.asarray(0), jnp.asarray(-1), jnp.asarray(0.0),
+                  jnp.asarray(_RUNNING), jnp.asarray(0), jnp.asarray(-1), jnp.asarray(0.0),
                   jnp.asarray(0, jnp.int32), jnp.asarray(0, jnp.int32),
                   v0, v0, c, target, final, jnp.asarray(0), U, ST, TP)
         carry = jax.lax.while_loop(running, iterate, carry0)

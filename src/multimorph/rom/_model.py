@@ -14,9 +14,11 @@ import numpy as np
 from multimorph.errors import SpecError
 from multimorph.geometry import CellGeometry
 from multimorph.materials._material import Material
+from multimorph.outcome import Outcome
 from multimorph.response import EquilibriumPath, Response, build_response
 from multimorph.rom._cell_energy import COORDINATES, RomOptions, cell_kernel
 from multimorph.rom._continuation import (
+    REASON_TEXT,
     ContinuationError,
     RawPath,
     TracerSettings,
@@ -24,7 +26,8 @@ from multimorph.rom._continuation import (
     raw_path_from_arrays,
 )
 
-__all__ = ["DEFAULT_SETTINGS", "cell_theta", "material_theta", "options_for", "solve_cell"]
+__all__ = ["DEFAULT_SETTINGS", "cell_theta", "cell_tracer", "material_theta", "options_for",
+           "solve_cell"]
 
 #: Step control of the cell tracer: coordinates (κd, φt, φs, e, ψ) and p = P/μ scaled so that
 #: one unit of arc length is about a radian of bulge or bend, or 0.2 μ of pressure. A Newton
@@ -74,7 +77,7 @@ def free_settings(settings: TracerSettings, options: RomOptions) -> TracerSettin
 
 
 @lru_cache(maxsize=16)
-def _kernels(wall_law: str, bottom_law: str, options: RomOptions,
+def cell_tracer(wall_law: str, bottom_law: str, options: RomOptions,
              settings: TracerSettings) -> tuple[Any, Any, Any]:
     ck = cell_kernel(wall_law, bottom_law, options)
     tracer = jax.jit(make_tracer(ck.energy, ck.n_free, free_settings(settings, options),
@@ -174,19 +177,17 @@ def solve_cell(cell: CellGeometry, p_max: float, *, options: RomOptions | None =
     st = settings or DEFAULT_SETTINGS
     p_max = _check_pmax(p_max)
     assert cell.bottom_material is not None
-    ck, tracer, measures = _kernels(cell.material.model, cell.bottom_material.model, opts, st)
+    ck, tracer, measures = cell_tracer(cell.material.model, cell.bottom_material.model, opts,
+                                      st)
     theta = jax.tree_util.tree_map(jnp.asarray, cell_theta(cell))
     mu = cell.mu
     out = tracer(jnp.zeros(ck.n_free), theta, jnp.asarray(p_max / mu))
     raw = raw_path_from_arrays(out, ck.n_free)
     if not raw.ok:
+        stalled = raw.outcome is Outcome.STALLED
         where = (f" at step {raw.fail_step}, P = {raw.fail_p * mu / 1e3:.4g} kPa"
-                 if raw.status == 2 else "")
-        from multimorph.rom._continuation import REASON_TEXT, STATUS_TEXT
-
-        why = STATUS_TEXT.get(raw.status, "")
-        if raw.status == 2:
-            why += f": {REASON_TEXT.get(raw.reason, '')}"
+                 if stalled else "")
+        why = raw.outcome.message + (f": {REASON_TEXT.get(raw.reason, '')}" if stalled else "")
         last = raw.p[-1] * mu / 1e3
         raise ContinuationError(
             f"cell ROM: could not trace the equilibrium path to {p_max / 1e3:.4g} kPa"

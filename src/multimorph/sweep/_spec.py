@@ -225,15 +225,15 @@ class SweepSpec:
                 lengths[q.target] = v
             elif q.kind == "material":
                 which, key = q.target.split(".")
-                m = mats[which]
-                mats[which] = replace(m, params={**m.params, key: v})
+                chosen = mats[which]
+                mats[which] = replace(chosen, params={**chosen.params, key: v})
             elif q.kind == "ratio":
                 lengths[q.target] = v * lengths["length"]
             elif q.target == "mu":
                 if not v > 0:
                     raise SpecError(f"mu must be > 0, got {v:.4g} Pa")
-                m = mats["material"]
-                mats["material"] = m.scaled(v / m.shear_modulus)
+                chosen = mats["material"]
+                mats["material"] = chosen.scaled(v / chosen.shear_modulus)
             else:  # mu_b/mu
                 if not v > 0:
                     raise SpecError(f"mu_b/mu must be > 0, got {v:.4g}")
@@ -361,9 +361,9 @@ def parse_sweep_spec(raw: Mapping[str, Any]) -> SweepSpec:
         outputs = [outputs]
     if not isinstance(outputs, list) or not outputs:
         raise SpecError(f"sweep.outputs: expected a non-empty list from {OUTPUTS}")
-    for o in outputs:
-        if o not in OUTPUTS:
-            raise SpecError(f"sweep.outputs: unknown output {o!r}; expected one of {OUTPUTS}")
+    for output in outputs:
+        if output not in OUTPUTS:
+            raise SpecError(f"sweep.outputs: unknown output {output!r}; expected one of {OUTPUTS}")
     if "pmax" not in sweep:
         raise SpecError("sweep.pmax: missing (largest pressure, e.g. \"60 kPa\")")
     pmax = to_si(sweep["pmax"], "Pa", field="sweep.pmax")

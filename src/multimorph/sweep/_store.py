@@ -90,7 +90,7 @@ def write_part_group(path: Path, indices: Sequence[int], records: Sequence[Mappi
     import zarr
 
     n = len(records)
-    g = zarr.open_group(str(path), mode="w", zarr_format=3)
+    group = zarr.open_group(str(path), mode="w", zarr_format=3)
     attrs: dict[str, Any] = {
         "format": PART_FORMAT,
         "status": [str(r.get("status", "ok")) for r in records],
@@ -99,52 +99,52 @@ def write_part_group(path: Path, indices: Sequence[int], records: Sequence[Mappi
     if any("meta" in r for r in records):
         attrs["meta"] = [json.dumps(r.get("meta", {}), sort_keys=True, default=str)
                          for r in records]
-    g.create_array("design", data=np.asarray(indices, dtype=np.int64))
+    group.create_array("design", data=np.asarray(indices, dtype=np.int64))
     if "characteristic" in outputs:
         sc = np.array([[float(r.get(v, np.nan)) for v in SCALAR_VARS] for r in records],
                       dtype=float).reshape(n, len(SCALAR_VARS))
-        g.create_array("scalars", data=sc)
+        group.create_array("scalars", data=sc)
         attrs["critical_kind"] = [str(r.get("critical_kind", "")) for r in records]
     if "curves" in outputs:
         lens = [len(r["pressure"]) if "pressure" in r else 0 for r in records]
-        m = max([*lens, 1])
+        width = max([*lens, 1])
         names = [*_CURVE_FLOATS, *(v for v in EXTRA_CURVE_VARS if any(v in r for r in records))]
-        cur = np.full((n, m, len(names)), np.nan)
-        stable = np.zeros((n, m), bool)
+        cur = np.full((n, width, len(names)), np.nan)
+        stable = np.zeros((n, width), bool)
         for i, r in enumerate(records):
             if lens[i]:
                 for j, v in enumerate(names):
                     if v in r:
                         cur[i, :lens[i], j] = np.asarray(r[v], float)
                 stable[i, :lens[i]] = np.asarray(r["stable"], bool)
-        g.create_array("curves", data=cur)
-        g.create_array("curve_stable", data=stable)
-        g.create_array("n_points", data=np.asarray(lens, dtype=np.int64))
+        group.create_array("curves", data=cur)
+        group.create_array("curve_stable", data=stable)
+        group.create_array("n_points", data=np.asarray(lens, dtype=np.int64))
         attrs["curve_vars"] = names
-    g.attrs.update(attrs)
+    group.attrs.update(attrs)
 
 
 def read_part_group(path: Path) -> dict[str, np.ndarray]:
     """Columns of one part: ``design``, ``status``, ``error``, scalars, ``curve_*``."""
     import zarr
 
-    g = zarr.open_group(str(path), mode="r")
-    attrs = dict(g.attrs)
-    out: dict[str, np.ndarray] = {"design": np.asarray(g["design"][:], dtype=np.int64)}
+    group = zarr.open_group(str(path), mode="r")
+    attrs = dict(group.attrs)
+    out: dict[str, np.ndarray] = {"design": np.asarray(group["design"][:], dtype=np.int64)}
     for key in ("status", "error", "critical_kind", "meta"):
         if key in attrs:
             out[key] = _strings(attrs[key])
-    names = set(g.array_keys())
+    names = set(group.array_keys())
     if "scalars" in names:
-        sc = np.asarray(g["scalars"][:])
+        sc = np.asarray(group["scalars"][:])
         for j, v in enumerate(SCALAR_VARS):
             out[v] = sc[:, j]
     if "curves" in names:
-        cur = np.asarray(g["curves"][:])
+        cur = np.asarray(group["curves"][:])
         for j, v in enumerate(attrs.get("curve_vars", _CURVE_FLOATS)):
             out[f"curve_{v}"] = cur[:, :, j]
-        out["curve_stable"] = np.asarray(g["curve_stable"][:], dtype=bool)
-        out["n_points"] = np.asarray(g["n_points"][:], dtype=np.int64)
+        out["curve_stable"] = np.asarray(group["curve_stable"][:], dtype=bool)
+        out["n_points"] = np.asarray(group["n_points"][:], dtype=np.int64)
     return out
 
 
@@ -322,10 +322,10 @@ class SweepStore:
 
         idx = []
         for p in self.part_paths():
-            g = zarr.open_group(str(p), mode="r")
-            i = np.asarray(g["design"][:], dtype=np.int64)
+            group = zarr.open_group(str(p), mode="r")
+            i = np.asarray(group["design"][:], dtype=np.int64)
             if not include_failed:
-                i = i[np.asarray(g.attrs["status"], dtype=object) == "ok"]
+                i = i[np.asarray(group.attrs["status"], dtype=object) == "ok"]
             idx.append(i)
         return np.unique(np.concatenate(idx)) if idx else np.zeros(0, np.int64)
 

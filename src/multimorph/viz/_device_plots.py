@@ -44,18 +44,18 @@ def module_curves_figure(result: Any) -> Any:
                    color=colour[band["module"]], alpha=0.08, lw=0)
     modes = {result.strains[n].module.mode for n in names}
     for n in names:
-        s = result.strains[n]
-        y, _ = _display(s.module.mode, s.measure)
-        kind = s.module.mode
+        strain = result.strains[n]
+        y, _ = _display(strain.module.mode, strain.measure)
+        kind = strain.module.mode
         ls = "-" if kind == "bend" else ("--" if kind == "twist" else ":")
-        ax.plot(s.pressure / 1e3, y, ls, color=colour[n], lw=2, label=f"{n} ({kind})")
-        ch = s.response.characteristic
+        ax.plot(strain.pressure / 1e3, y, ls, color=colour[n], lw=2, label=f"{n} ({kind})")
+        ch = strain.response.characteristic
         for p, marker in ((ch.critical, "o"), (ch.hardening, "s")):
             if p is not None:
-                ax.plot([p / 1e3], [np.interp(p, s.pressure, y)], marker, color=colour[n],
+                ax.plot([p / 1e3], [np.interp(p, strain.pressure, y)], marker, color=colour[n],
                         ms=7, mfc="white")
     ax.set_xlabel("pressure P (kPa)")
-    ax.set_ylabel(" / ".join(sorted({_display(m, np.zeros(1))[1] for m in modes})))
+    ax.set_ylabel(" / ".join(sorted({_display(mode, np.zeros(1))[1] for mode in modes})))
     ax.set_title(f"{result.device.name}: motion per module (o Pc, □ Ph; shading: dominant "
                  f"module)", fontsize=10)
     ax.grid(alpha=0.3)

@@ -160,8 +160,8 @@ def pc_line_figure(ds: Any, x: str, group: str | None = None) -> Any:
     ax = fig.add_subplot()
     cmap = colormaps["viridis"]
     scale, unit = _unit_scale(ds, x_var)
-    for k, (name, m) in enumerate(groups):
-        i = np.flatnonzero(m)
+    for k, (name, members) in enumerate(groups):
+        i = np.flatnonzero(members)
         i = i[np.argsort(xv[i], kind="stable")]
         c = cmap(k / max(len(groups) - 1, 1)) if len(groups) > 1 else "C0"
         ax.plot(xv[i] * scale, pc[i], "o-", color=c, ms=3, label=f"Pc {name}".strip())

@@ -1,23 +1,33 @@
-"""ROM vs FE on one cell: Pc, Ph and κ(P) side by side with relative differences; and the
-in-plane shear of a strip of tilted (twisting) cells against the ROM's twisting kinematics."""
+"""ROM vs FE: Pc, Ph and κ(P) of one cell side by side with relative differences; the
+in-plane shear of a strip of tilted (twisting) cells against the ROM's twisting kinematics;
+every module of a device; a twisting module's twist and stretch."""
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+import time
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
+from multimorph.device import Module, module_strains
 from multimorph.errors import MultimorphError, SpecError
+from multimorph.fe.analyses._cell import FEResult, simulate_cell
+from multimorph.fe.analyses._device import FEDeviceResult
+from multimorph.fe.analyses._run import activation
+from multimorph.fe.analyses._twist import FETwistResult, tilt_sense
+from multimorph.fe.engine import FESettings
 from multimorph.geometry import CellGeometry
 from multimorph.response import Response
 
-__all__ = ["Comparison", "ShearComparison", "compare_cell", "compare_responses",
-           "compare_shear", "compare_shear_responses"]
+__all__ = ["Comparison", "RomComparison", "ShearComparison", "compare_cell",
+           "compare_cell_run", "compare_device", "compare_responses", "compare_shear",
+           "compare_shear_responses", "compare_twisting"]
 
 
 def _rel(a: float | None, b: float | None) -> float | None:
+    """The relative difference (a − b)/b, ``None`` where either is missing or b is 0."""
     if a is None or b is None or b == 0:
         return None
     return (a - b) / b
@@ -77,6 +87,16 @@ class Comparison:
         }
 
 
+def _rom_cell_model() -> Any:
+    """:func:`multimorph.rom.simulate_cell`, or an error that says the ROM is missing."""
+    try:
+        from multimorph.rom import simulate_cell
+    except ImportError as exc:
+        raise MultimorphError(f"the reduced model (multimorph.rom) is not available: {exc}"
+                              ) from exc
+    return simulate_cell
+
+
 def compare_responses(rom: Response, fe: Response, n: int = 25) -> Comparison:
     """Compare two responses of the same cell (any two backends)."""
     cr, cf = rom.characteristic, fe.characteristic
@@ -105,24 +125,13 @@ def compare_cell(geometry: CellGeometry, p_max: float, fe_settings: Any = None,
     model's cell curvature is the module's (every cell of a module bends alike there), so
     the comparison tests that assumption too.
     """
-    import time
-
-    from multimorph.fe._cell import FESettings, simulate_cell
-
-    try:
-        from multimorph.rom import simulate_cell as rom_simulate
-    except ImportError as exc:
-        raise MultimorphError(f"the reduced model (multimorph.rom) is not available: {exc}"
-                              ) from exc
+    rom_simulate = _rom_cell_model()
     t = time.perf_counter()
     rom = rom_simulate(geometry, p_max)
     t_rom = time.perf_counter() - t
-    from dataclasses import replace
-
-    s = fe_settings if fe_settings is not None else FESettings()
-    s = replace(s, p_max=p_max)
+    settings = fe_settings if fe_settings is not None else FESettings()
     t = time.perf_counter()
-    fe = simulate_cell(geometry, s, n_cells=n_cells)
+    fe = simulate_cell(geometry, replace(settings, p_max=p_max), n_cells=n_cells)
     t_fe = time.perf_counter() - t
     c = compare_responses(rom, fe.response)
     return Comparison(**{**c.__dict__, "meta": {"rom_time": t_rom, "fe_time": t_fe,
@@ -195,8 +204,6 @@ def compare_shear_responses(rom: Response, fe: Response, geometry: CellGeometry,
     n : int
         Number of common pressures.
     """
-    from multimorph.device import Module, module_strains
-
     if not 0.0 < abs(tilt) < math.radians(80.0):
         raise SpecError(f"tilt: compare_shear needs 0 < |tilt| < 80 degrees, got "
                         f"{math.degrees(tilt):.4g} deg")
@@ -222,6 +229,16 @@ def compare_shear_responses(rom: Response, fe: Response, geometry: CellGeometry,
     return ShearComparison(tilt, P, g_rom, g_fe, a_rom, a_fe, ratio, rel)
 
 
+def compare_cell_run(rom: Response, fe: FEResult) -> Comparison | ShearComparison:
+    """ROM vs FE of one cell run: a tilted strip's shear (:func:`compare_shear_responses`),
+    else Pc, Ph and κ(P) (:func:`compare_responses`); ``rom`` is the straight cell's
+    reduced-model response."""
+    tilt = fe.mesh.tilt
+    if tilt:
+        return compare_shear_responses(rom, fe.response, fe.mesh.geometry, tilt)
+    return compare_responses(rom, fe.response)
+
+
 def compare_shear(geometry: CellGeometry, tilt: float, p_max: float, fe_settings: Any = None,
                   n_cells: int = 2) -> ShearComparison:
     """Run the ROM on the straight cell and FE on a strip of ``n_cells`` tilted cells.
@@ -240,20 +257,11 @@ def compare_shear(geometry: CellGeometry, tilt: float, p_max: float, fe_settings
     n_cells : int
         Cells in the FE strip.
     """
-    import time
-    from dataclasses import replace
-
-    from multimorph.fe._cell import FESettings, simulate_cell
-
-    try:
-        from multimorph.rom import simulate_cell as rom_simulate
-    except ImportError as exc:
-        raise MultimorphError(f"the reduced model (multimorph.rom) is not available: {exc}"
-                              ) from exc
-    s = fe_settings if fe_settings is not None else FESettings()
-    s = replace(s, p_max=p_max, half=False)
+    rom_simulate = _rom_cell_model()
+    settings = fe_settings if fe_settings is not None else FESettings()
     t = time.perf_counter()
-    fe = simulate_cell(geometry, s, n_cells=n_cells, tilt=tilt)
+    fe = simulate_cell(geometry, replace(settings, p_max=p_max, half=False), n_cells=n_cells,
+                       tilt=tilt)
     t_fe = time.perf_counter() - t
     t = time.perf_counter()
     rom = rom_simulate(geometry, p_max)
@@ -262,3 +270,118 @@ def compare_shear(geometry: CellGeometry, tilt: float, p_max: float, fe_settings
     return replace(c, meta={"rom_time": t_rom, "fe_time": t_fe, "fe_dof": fe.stats["nfree"],
                             "n_cells": n_cells,
                             "fe_status": fe.stats["stop_reason"] or fe.stats["status"]})
+
+
+#: what a comparison with the reduced model returns: of a cell run, of a device or twisting
+#: module (a dict)
+RomComparison = Comparison | ShearComparison | dict[str, Any]
+
+
+def compare_device(fe: FEDeviceResult, rom: Any = None, *, rom_p_max: float | None = None,
+                   ) -> dict[str, dict[str, Any]]:
+    """Each module's Pc and Ph from FE and from the reduced-model device, relative
+    differences (rom − fe)/fe.
+
+    A Pc or Ph at either end of a backend's traced range (e.g. the steepest rise read at the
+    highest pressure) counts as not reached (``None``), so it never enters a difference.
+
+    Parameters
+    ----------
+    fe : FEDeviceResult
+    rom : multimorph.device.DeviceResult, optional
+        Default: :func:`multimorph.device.simulate_device` on the same device to
+        ``rom_p_max``.
+    rom_p_max : float, optional
+        Highest pressure of the reduced model (Pa); default twice the pressure FE was asked
+        to reach (the reduced model is stiffer than FE, docs/fe-formulation.md §6, and is
+        cheap).
+
+    Returns
+    -------
+    dict
+        Per module: ``pc_fe``, ``pc_rom``, ``pc_rel``, ``ph_fe``, ``ph_rom``, ``ph_rel``
+        (Pa, relative or None), the ``signal`` read and ``rom_p_max``.
+    """
+    p_rom = float(rom_p_max if rom_p_max is not None else 2.0 * fe.stats["p_max"])
+    if rom is None:
+        from multimorph.device import simulate_device as rom_device
+
+        rom = rom_device(fe.device, p_rom)
+    out: dict[str, dict[str, Any]] = {}
+    for module, src in zip(fe.mesh.modules, fe.mesh.source, strict=True):
+        reduced = rom.strains[src].response
+        pc_f, ph_f = fe.activation(module.name)
+        pc_r, ph_r = activation(reduced)
+        out[module.name] = {"kind": module.kind, "signal": reduced.characteristic.signal,
+                            "rom_p_max": p_rom, "pc_fe": pc_f, "pc_rom": pc_r,
+                            "pc_rel": _rel(pc_r, pc_f), "ph_fe": ph_f, "ph_rom": ph_r,
+                            "ph_rel": _rel(ph_r, ph_f)}
+    return out
+
+
+def compare_twisting(result: FETwistResult, module: Module | None = None, *,
+                     rom: Response | None = None, rom_p_max: float | None = None,
+                     points: int = 6) -> dict[str, Any]:
+    """FE against the reduced model of a twisting module: twist angle and axial stretch at
+    common pressures, Pc and Ph, relative differences (rom − fe)/fe.
+
+    The reduced model's module strains come from :func:`multimorph.device.module_strains`
+    on its cell response (as :func:`~multimorph.fe.compare_device` does): the strip's
+    mid-height strain ε gives τ = ε sin 2β / R and the axial stretch 1 + ε cos²β. Both angles
+    are in the sense of the tilt (FE: −sign(β) times the signed angle about +y; the reduced
+    model: sign(β) τ L, its formula has no handedness of its own). Its Pc and Ph are those
+    of its cell response (read on the cell's curvature), FE's on the module's
+    twist rate.
+
+    Parameters
+    ----------
+    result : FETwistResult
+    module : Module, optional
+        Default ``result.module``.
+    rom : Response, optional
+        The reduced model's cell response; default :func:`multimorph.rom.solve_cell` on the
+        module's cell to ``rom_p_max``.
+    rom_p_max : float, optional
+        Highest pressure of the reduced model (Pa); default twice the highest FE pressure
+        (the reduced model is stiffer than FE and cheap).
+    points : int
+        Common pressures: evenly spaced up to the highest FE pressure on the FE loading curve.
+
+    Returns
+    -------
+    dict
+        ``pressure_pa``, ``twist_deg_fe``, ``twist_deg_rom``, ``twist_rel``,
+        ``stretch_fe``, ``stretch_rom``, ``stretch_rel`` (lists; ``stretch_rel`` compares
+        the elongations λ − 1), ``pc_fe``, ``pc_rom``,
+        ``pc_rel``, ``ph_fe``, ``ph_rom``, ``ph_rel`` (Pa, relative or None), ``rom_p_max``.
+    """
+    mod = module or result.module
+    p_rom = float(rom_p_max if rom_p_max is not None else 2.0 * np.max(result.pressure))
+    if rom is None:
+        from multimorph.rom import solve_cell
+
+        rom = solve_cell(mod.cell, p_rom)
+    ms = module_strains(mod, rom)
+    sense = tilt_sense(mod.tilt)
+    lo = result.response.loading
+    top = float(np.max(lo.pressure))
+    P = np.linspace(top / points, top, points)
+    fe_angle = np.interp(P, lo.pressure, lo.twist_rate) * mod.length
+    fe_stretch = np.interp(P, lo.pressure, lo.axial_stretch)
+    rom_angle = sense * np.interp(P, ms.pressure, ms.twist) * mod.length
+    rom_stretch = np.interp(P, ms.pressure, ms.stretch)
+    pc_f, ph_f = result.activation()
+    pc_r, ph_r = activation(rom)
+
+    def rel(a: np.ndarray, b: np.ndarray) -> list[float | None]:
+        return [_rel(float(x), float(y)) for x, y in zip(a, b, strict=True)]
+
+    return {"module": mod.name, "rom_p_max": p_rom, "pressure_pa": P.tolist(),
+            "twist_deg_fe": np.degrees(fe_angle).tolist(),
+            "twist_deg_rom": np.degrees(rom_angle).tolist(),
+            "twist_rel": rel(rom_angle, fe_angle),
+            "stretch_fe": fe_stretch.tolist(), "stretch_rom": rom_stretch.tolist(),
+            "stretch_rel": rel(rom_stretch - 1.0, fe_stretch - 1.0),
+            "pc_fe": pc_f, "pc_rom": pc_r, "pc_rel": _rel(pc_r, pc_f),
+            "ph_fe": ph_f, "ph_rom": ph_r, "ph_rel": _rel(ph_r, ph_f),
+            "signal_fe": "twist_rate", "signal_rom": rom.characteristic.signal}

@@ -38,48 +38,35 @@ import numpy as np
 
 from multimorph.device import Module
 from multimorph.errors import SpecError
-from multimorph.fe._mesh import (
-    _HEX_FACES,
-    BOTTOM,
-    CellMesh,
-    MeshDensity,
-    cell_mesh,
-    resolve_density,
-)
+from multimorph.fe.mesh._cell import CellMesh, cell_mesh
+from multimorph.fe.mesh._density import MeshDensity, resolve_density
+from multimorph.fe.mesh._hex import BOTTOM, SHAFT, HexMesh, material_bodies
 from multimorph.materials import Material
 
-__all__ = ["CORE", "SHAFT", "TwistMesh", "twisting_module_mesh"]
-
-SHAFT = 2
-"""Region tag of the shaft's elements (0 wall, 1 bottom layer as in :func:`cell_mesh`)."""
+__all__ = ["CORE", "TwistMesh", "twisting_module_mesh"]
 
 CORE = 0.5
 """Size of the shaft's inner core, as a fraction of the polygon (the ring is the rest)."""
 
 
 @dataclass(frozen=True, eq=False)
-class TwistMesh:
-    """A hexahedral mesh of a twisting module with its tags (m, reference configuration).
+class TwistMesh(HexMesh):
+    """A hexahedral mesh of a twisting module with its tags (:class:`HexMesh`; m).
 
     Attributes
     ----------
-    points : ndarray (n, 3)
-    cells : ndarray (m, 8)
-        VTK hexahedron connectivity.
     region : ndarray (m,)
-        0 strip wall, 1 strip bottom layer, 2 shaft.
+        :data:`WALL` strip wall, :data:`BOTTOM` strip bottom layer, :data:`SHAFT` shaft.
+    clamped : ndarray (n,) of bool
+        Nodes of the reference end (unsheared y = 0).
+    mirror : ndarray (n,) of bool
+        All False (a twisting module has no mirror plane).
     strip : ndarray (m,)
         Strip of each element (0 … strips − 1), −1 for the shaft.
     material : ndarray (m,)
         Index of the element's material in ``materials``.
-    chamber_points : ndarray (n,) of bool
-        Nodes on a chamber surface (the pressure boundary).
-    chamber_faces : ndarray (k, 4)
-        Chamber faces, normals out of the chamber.
     shear : ndarray (n,)
         The tilt's shift of every node along y (m): points minus :meth:`unsheared`.
-    clamped : ndarray (n,) of bool
-        Nodes of the reference end (unsheared y = 0).
     end_section : ndarray (i,)
         Nodes of the free end section (unsheared y = L).
     module : Module
@@ -93,15 +80,9 @@ class TwistMesh:
     density : MeshDensity
     """
 
-    points: np.ndarray
-    cells: np.ndarray
-    region: np.ndarray
     strip: np.ndarray
     material: np.ndarray
-    chamber_points: np.ndarray
-    chamber_faces: np.ndarray
     shear: np.ndarray
-    clamped: np.ndarray
     end_section: np.ndarray
     module: Module
     strip_mesh: CellMesh
@@ -115,33 +96,15 @@ class TwistMesh:
         """Module length along y (m): ``n_cells · d``."""
         return self.module.length
 
-    @property
-    def ndof(self) -> int:
-        return 3 * len(self.points)
-
-    @property
-    def ncells(self) -> int:
-        return len(self.cells)
+    def bodies(self) -> list[tuple[np.ndarray, Material]]:
+        """One body per distinct material (its elements and the material)."""
+        return material_bodies(self.material, self.materials)
 
     def unsheared(self) -> np.ndarray:
         """Node coordinates before the tilt shear (m)."""
         pts = self.points.copy()
         pts[:, 1] -= self.shear
         return pts
-
-    def section_weights(self, nodes: np.ndarray) -> np.ndarray:
-        """Area weights of ``nodes`` (a cross-section): a quarter of every quad face of the
-        section each node touches, so weighted means of bilinear fields are exact."""
-        on = np.zeros(len(self.points), dtype=bool)
-        on[nodes] = True
-        faces = self.cells[:, _HEX_FACES].reshape(-1, 4)
-        faces = faces[np.all(on[faces], axis=1)]
-        faces = faces[np.unique(np.sort(faces, axis=1), axis=0, return_index=True)[1]]
-        P = self.points[faces]
-        area = 0.5 * np.linalg.norm(np.cross(P[:, 2] - P[:, 0], P[:, 3] - P[:, 1]), axis=1)
-        w = np.zeros(len(self.points))
-        np.add.at(w, faces.ravel(), np.repeat(area / 4.0, 4))
-        return w[nodes]
 
 
 def _frame(k: int, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -288,10 +251,10 @@ def twisting_module_mesh(module: Module, mesh: str | MeshDensity = "coarse", *,
     if n < 3:
         raise SpecError(f"{where}.strips: {n} strips; the FE shaft is a regular polygon with "
                         f"one face per strip, so it needs at least 3")
-    g = module.cell
+    cell = module.cell
     r = module.shaft_radius
     a = r * math.tan(math.pi / n)
-    w, d = g.width, g.length
+    w, d = cell.width, cell.length
     tol = 1e-9 * d
     if 0.5 * w > a + tol:
         raise SpecError(f"{where}.shaft_radius: strips of width {w * 1e3:.4g} mm (cell "
@@ -300,11 +263,11 @@ def twisting_module_mesh(module: Module, mesh: str | MeshDensity = "coarse", *,
                         f"{2 * a * 1e3:.4g} mm); raise shaft_radius or lower strips or the "
                         f"cell width")
     beta = module.tilt if tilt is None else float(tilt)
-    dens = resolve_density(mesh, element_size)
-    edge = dens.edge(g)
-    sm = cell_mesh(g, dens, n_cells=module.n_cells, half=False, tilt=beta)
+    density = resolve_density(mesh, element_size)
+    edge = density.edge(cell)
+    strip_mesh = cell_mesh(cell, density, n_cells=module.n_cells, half=False, tilt=beta)
     tan_b = math.tan(beta)
-    loc = sm.unsheared()
+    loc = strip_mesh.unsheared()
     xs, ys = _distinct(loc[:, 0], tol), _distinct(loc[:, 1], tol)
 
     # strips: local (x, y, z) -> (x − w/2) e_θ + (r + z) e_r, y
@@ -312,18 +275,18 @@ def twisting_module_mesh(module: Module, mesh: str | MeshDensity = "coarse", *,
     base = 0
     for k in range(n):
         er, et = _frame(k, n)
-        s = sm.points[:, 0] - 0.5 * w
-        rad = r + sm.points[:, 2]
-        xz = s[:, None] * et + rad[:, None] * er
-        P = np.column_stack([xz[:, 0], sm.points[:, 1], xz[:, 1]])
+        across = strip_mesh.points[:, 0] - 0.5 * w
+        rad = r + strip_mesh.points[:, 2]
+        xz = across[:, None] * et + rad[:, None] * er
+        P = np.column_stack([xz[:, 0], strip_mesh.points[:, 1], xz[:, 1]])
         pts.append(P)
-        cells.append(sm.cells + base)
-        region.append(sm.region)
-        strip.append(np.full(len(sm.cells), k))
-        chamber.append(sm.chamber_points)
-        chambers.append(sm.chamber_faces + base)
+        cells.append(strip_mesh.cells + base)
+        region.append(strip_mesh.region)
+        strip.append(np.full(len(strip_mesh.cells), k))
+        chamber.append(strip_mesh.chamber_points)
+        chambers.append(strip_mesh.chamber_faces + base)
         base += len(P)
-    shift = [sm.points[:, 1] - loc[:, 1]] * n
+    shift = [strip_mesh.points[:, 1] - loc[:, 1]] * n
 
     # shaft: O-grid section extruded along the strip's y planes, sheared by f
     s_face = _face_grid(xs, w, a, edge, tol)
@@ -359,8 +322,8 @@ def twisting_module_mesh(module: Module, mesh: str | MeshDensity = "coarse", *,
     sh = np.zeros(len(points))
     sh[renum] = np.concatenate(shift)
     region_ = np.concatenate(region).astype(np.int8)
-    materials: list[Material] = [g.material]
-    bottom = g.bottom_material if g.bottom_material is not None else g.material
+    materials: list[Material] = [cell.material]
+    bottom = cell.bottom_material if cell.bottom_material is not None else cell.material
     if bottom not in materials:
         materials.append(bottom)
     material = np.where(region_ == BOTTOM, materials.index(bottom), 0).astype(np.int16)
@@ -370,7 +333,8 @@ def twisting_module_mesh(module: Module, mesh: str | MeshDensity = "coarse", *,
         points=points, cells=cells_, region=region_, strip=np.concatenate(strip).astype(np.int16),
         material=material, chamber_points=chamber_pts,
         chamber_faces=renum[np.concatenate(chambers)], shear=sh,
-        clamped=np.abs(y0) < tol, end_section=np.flatnonzero(np.abs(y0 - L) < tol),
-        module=module, strip_mesh=sm, materials=tuple(materials), radius=r, half_face=a,
-        density=dens)
+        clamped=np.abs(y0) < tol, mirror=np.zeros(len(points), dtype=bool),
+        end_section=np.flatnonzero(np.abs(y0 - L) < tol),
+        module=module, strip_mesh=strip_mesh, materials=tuple(materials), radius=r, half_face=a,
+        density=density)
 

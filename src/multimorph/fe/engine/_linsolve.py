@@ -1,7 +1,7 @@
 """Sparse linear solvers for symmetric FE tangents: PARDISO (MKL) or SuperLU.
 
 PARDISO runs in real symmetric-indefinite mode (``mtype=-2``) on the upper triangle; it was
-the fastest solver on this 2-core machine (fe-notes §3). The tangent's sparsity pattern does
+the fastest solver in the FE trials (fe-notes §3). The tangent's sparsity pattern does
 not change along a path, so the symbolic analysis (fill-reducing ordering, about half the
 cost of a solve at 10k DOF) is done once per pattern and kept: later solves only refactorise
 numerically (PARDISO phase 23) while the pattern stays the same, and a matrix equal to the

@@ -11,14 +11,17 @@ traces on from the last one. A folder whose key or DOF count differs is discarde
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import shutil
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-from multimorph.fe._solve import PathPoint
+from multimorph.fe.engine._solve import PathPoint
 
 __all__ = ["PathCheckpoint"]
 
@@ -45,6 +48,20 @@ class PathCheckpoint:
         self.discarded: str | None = None
         self._nfree: int | None = None
         self._count = 0
+
+    @classmethod
+    def beside(cls, output: str | os.PathLike[str], source: bytes,
+               options: Mapping[str, Any]) -> PathCheckpoint:
+        """The checkpoint of a run that writes into the folder ``output``: the folder
+        ``<output>.resume`` beside it, keyed to the ``source`` (a spec file's bytes), the
+        ``options`` and the package version."""
+        from multimorph import __version__
+
+        key = hashlib.sha256(source)
+        key.update(json.dumps({**options, "version": __version__}, sort_keys=True,
+                              default=str).encode())
+        output = Path(output)
+        return cls(output.with_name(output.name + ".resume"), key.hexdigest())
 
     def load(self, nfree: int) -> list[PathPoint]:
         """The saved points of this key and DOF count, in path order (empty if none).

@@ -27,7 +27,7 @@ import numpy as np
 from multimorph.fe._deps import require
 from multimorph.materials import Material
 
-__all__ = ["InvariantHyperelastic", "TensortraxMath", "felupe_umat"]
+__all__ = ["TENSORTRAX_MATH", "InvariantHyperelastic", "TensortraxMath", "felupe_umat"]
 
 
 @dataclass(frozen=True)

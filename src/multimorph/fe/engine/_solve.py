@@ -1,6 +1,6 @@
 """Path drivers: Newton, pressure-controlled stepping with cutback, arc-length continuation.
 
-All three work on a :class:`~multimorph.fe._problem.PressureProblem`, whose residual is a pure
+All three work on a :class:`~multimorph.fe.engine.PressureProblem`, whose residual is a pure
 function of the displacement (no hidden state), so a rejected step is undone by writing the
 last converged displacement back, and contique's cycles need no state bookkeeping.
 """
@@ -19,8 +19,9 @@ import numpy as np
 import scipy.sparse as sp
 
 from multimorph.fe._deps import require
-from multimorph.fe._linsolve import LinearSolver, NonFiniteSystemError
-from multimorph.fe._problem import PressureProblem
+from multimorph.fe.engine._linsolve import LinearSolver, NonFiniteSystemError
+from multimorph.fe.engine._problem import PressureProblem
+from multimorph.outcome import Outcome
 
 __all__ = ["NewtonInfo", "PathPoint", "PathRun", "continuation", "newton",
            "pressure_control"]
@@ -52,7 +53,9 @@ class PathRun:
     """Result of a path driver: the converged points and how it ended."""
 
     points: list[PathPoint] = field(default_factory=list)
-    status: str = "running"  # "completed", "stopped", "stalled", "max_steps"
+    #: how it ended: ``COMPLETED``, ``STOPPED``, ``STALLED`` or ``MAX_STEPS`` (``RUNNING``
+    #: while it runs); ``message`` says more
+    status: Outcome = Outcome.RUNNING
     message: str = ""
     attempts: int = 0
     cutbacks: int = 0
@@ -132,8 +135,9 @@ def pressure_control(problem: PressureProblem, p_end: float, solver: LinearSolve
     Returns
     -------
     PathRun
-        ``status`` is ``"completed"`` (reached ``p_end``), ``"stopped"`` (by ``on_point``),
-        ``"stalled"`` (step below ``dp_min``: a limit point, or lock-up) or ``"max_steps"``.
+        ``status`` is ``COMPLETED`` (reached ``p_end``), ``STOPPED`` (by ``on_point``),
+        ``STALLED`` (step below ``dp_min``: a limit point, or lock-up) or ``MAX_STEPS``
+        (:class:`~multimorph.outcome.Outcome`).
     """
     t0 = time.perf_counter()
     run = run if run is not None else PathRun()
@@ -165,7 +169,7 @@ def pressure_control(problem: PressureProblem, p_end: float, solver: LinearSolve
             run.points.append(pt)
             problem.sync(x)
             if on_point is not None and on_point(pt):
-                run.status = "stopped"
+                run.status = Outcome.STOPPED
                 break
             if info.iterations <= 5:
                 dp = min(dp * 1.5, dp_max)
@@ -175,12 +179,12 @@ def pressure_control(problem: PressureProblem, p_end: float, solver: LinearSolve
             in_row += 1
             dp *= 0.5
             if dp < dp_min or (max_cutbacks is not None and in_row >= max_cutbacks):
-                run.status = "stalled"
+                run.status = Outcome.STALLED
                 run.message = (f"pressure step fell below {dp_min:.3g} at P = {p:.6g} "
                                f"({info.message})")
                 break
     else:
-        run.status = "completed" if p >= p_end * (1 - 1e-12) else "max_steps"
+        run.status = Outcome.COMPLETED if p >= p_end * (1 - 1e-12) else Outcome.MAX_STEPS
     problem.sync(x)
     run.wall_time += time.perf_counter() - t0
     return run
@@ -474,15 +478,15 @@ def continuation(problem: PressureProblem, p_start: float, solver: LinearSolver,
             pt = PathPoint(p, x, int(res.niterations), stable, "arc-length")
             run.points.append(pt)
             if on_point is not None and on_point(pt):
-                run.status = "stopped"
+                run.status = Outcome.STOPPED
                 break
         else:
-            run.status = "max_steps" if len(run.points) else "stalled"
+            run.status = Outcome.MAX_STEPS if len(run.points) else Outcome.STALLED
     except NonFiniteSystemError as exc:
-        run.status = "stalled"
+        run.status = Outcome.STALLED
         run.message = f"continuation failed: {exc}"
-    if run.status == "running":
-        run.status = "stalled"
+    if run.status == Outcome.RUNNING:
+        run.status = Outcome.STALLED
     run.tangents_reused += cb.tangents_reused
     run.chord_steps += cb.chord_steps
     problem.sync(x_last)

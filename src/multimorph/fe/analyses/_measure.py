@@ -6,15 +6,17 @@ and returns plain numbers, so it works for FE states and for tests with syntheti
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from multimorph.fe._mesh import REGION_NAMES
+from multimorph.fe.mesh import REGION_NAMES
 
 __all__ = ["StripStrain", "bend_and_twist", "chamber_volume", "circle_fit_curvature",
-           "line_stretch", "peak_element", "peak_stretch", "peak_summary", "strip_strain"]
+           "largest_stretch", "line_stretch", "peak_element", "peak_stretch", "peak_summary",
+           "section_motion", "strip_strain", "unwrapped"]
 
 # 2×2 Gauss points on [0, 1]² with weights 1/4
 _G = 0.5 + np.array([-1.0, 1.0]) / (2.0 * np.sqrt(3.0))
@@ -89,6 +91,7 @@ def line_stretch(X: np.ndarray, x: np.ndarray) -> float:
 
 
 def _kabsch(X: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """The rotation R that best maps the centred points ``X`` onto ``x`` (Kabsch)."""
     Xc = X - X.mean(0)
     xc = x - x.mean(0)
     H = Xc.T @ xc
@@ -96,6 +99,42 @@ def _kabsch(X: np.ndarray, x: np.ndarray) -> np.ndarray:
     d = np.sign(np.linalg.det(Vt.T @ U.T))
     D = np.diag([1.0, 1.0, d])
     return Vt.T @ D @ U.T
+
+
+def section_motion(X: np.ndarray, x: np.ndarray, start: np.ndarray, end: np.ndarray,
+                   mirror_x: float | None, Q: np.ndarray | None = None,
+                   ) -> tuple[float, float, float]:
+    """Bend and twist (rad) of section ``end`` relative to section ``start`` (node indices
+    into the reference and deformed coordinates ``X``, ``x``) and the y–z chord of their
+    node centroids (same length unit), in the frame whose axes are the columns of ``Q``
+    (default the mesh frame).
+
+    A half model's sections are completed by the mirror images (x → 2 x_m − x) of their nodes
+    off the mirror plane ``mirror_x``, so the best-fit rotations are those of the whole
+    sections, node for node: exactly about x, composing additively along a device, and
+    equal to the whole model's.
+    """
+    def whole(P: np.ndarray, nodes: np.ndarray) -> np.ndarray:
+        if Q is not None:
+            P = P @ Q  # rows: coordinates along Q's columns
+        if mirror_x is None:
+            return P
+        off = np.abs(X[nodes, 0] - mirror_x) > 1e-9 * max(abs(mirror_x), 1e-3)
+        return np.concatenate([P, P[off] * [-1.0, 1.0, 1.0] + [2.0 * mirror_x, 0.0, 0.0]])
+
+    Xs, xs = whole(X[start], start), whole(x[start], start)
+    Xe, xe = whole(X[end], end), whole(x[end], end)
+    Rs = _kabsch(Xs, xs)
+    bend, twist = bend_and_twist(Xe, xe @ Rs)  # rows rotated by Rsᵀ: Rsᵀ R_e
+    chord = float(np.linalg.norm(xe[:, 1:].mean(0) - xs[:, 1:].mean(0)))
+    return bend, twist, chord
+
+
+def unwrapped(angle: float, previous: float) -> float:
+    """``angle`` (rad) shifted by whole turns to lie within half a turn of ``previous``: an
+    angle continuous along a path (a module may bend or twist past ±180°)."""
+    turn = 2.0 * math.pi
+    return angle + turn * round((previous - angle) / turn)
 
 
 def bend_and_twist(X: np.ndarray, x: np.ndarray) -> tuple[float, float]:

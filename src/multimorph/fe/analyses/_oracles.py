@@ -17,13 +17,17 @@ from dataclasses import dataclass
 import numpy as np
 
 from multimorph.fe._deps import require
-from multimorph.fe._linsolve import make_solver
-from multimorph.fe._problem import PressureProblem
-from multimorph.fe._solve import PathPoint, continuation, pressure_control
+from multimorph.fe.engine import (
+    PathPoint,
+    PressureProblem,
+    continuation,
+    make_solver,
+    pressure_control,
+)
 from multimorph.materials import Material
 
 __all__ = ["OracleResult", "clamped_strip", "clamped_strip_exact", "thick_sphere",
-           "thick_sphere_exact"]
+           "thick_sphere_exact", "thick_sphere_limit"]
 
 
 @dataclass(frozen=True)
@@ -78,8 +82,8 @@ def thick_sphere(ratio: float = 0.5, n_radial: int = 6, n_theta: int = 12, *,
     fem = require("felupe")
     A, B = ratio, 1.0
     rho = np.linspace(A, B, n_radial + 1)
-    th = np.linspace(0.0, np.pi / 2, n_theta + 1)
-    R, T = np.meshgrid(rho, th, indexing="ij")
+    theta = np.linspace(0.0, np.pi / 2, n_theta + 1)
+    R, T = np.meshgrid(rho, theta, indexing="ij")
     pts = np.column_stack([(R * np.cos(T)).ravel(), (R * np.sin(T)).ravel()])
     idx = np.arange(pts.shape[0]).reshape(R.shape)
     cells = np.column_stack([idx[:-1, :-1].ravel(), idx[1:, :-1].ravel(),
@@ -102,13 +106,13 @@ def thick_sphere(ratio: float = 0.5, n_radial: int = 6, n_theta: int = 12, *,
         pres.append(pt.pressure)
         return la >= lam_max
 
-    s = make_solver(solver)
+    linear_solver = make_solver(solver)
     try:
-        run = pressure_control(prob, 0.5, s, dp0=0.1, on_point=record)
-        continuation(prob, run.points[-1].pressure, s, dx_max=0.02, dp_max=0.02,
+        run = pressure_control(prob, 0.5, linear_solver, dp0=0.1, on_point=record)
+        continuation(prob, run.points[-1].pressure, linear_solver, dx_max=0.02, dp_max=0.02,
                      max_steps=300, on_point=record)
     finally:
-        s.release()
+        linear_solver.release()
     lam_a, p = np.array(lam), np.array(pres)
     exact = thick_sphere_exact(lam_a, ratio)
     return OracleResult(lam_a, p, exact, float(p.max()), thick_sphere_limit(ratio)[1],
@@ -164,12 +168,12 @@ def clamped_strip(thickness: float = 0.01, n_span: int = 200, n_thick: int = 2, 
 
     # a thin strip is bending-soft: its first micro-pressure already deflects it by many
     # thicknesses, so trace the path by continuation from the flat state
-    s = make_solver(solver)
+    linear_solver = make_solver(solver)
     try:
-        continuation(prob, 0.0, s, dx_max=0.02, dp_max=load * H / 10, max_steps=400,
+        continuation(prob, 0.0, linear_solver, dx_max=0.02, dp_max=load * H / 10, max_steps=400,
                      on_point=stop)
     finally:
-        s.release()
+        linear_solver.release()
     phi, p = np.array(phis), np.array(pres)
     with np.errstate(invalid="ignore", divide="ignore"):
         exact = np.where(phi > 0, clamped_strip_exact(np.maximum(phi, 1e-12)), 0.0)

@@ -30,7 +30,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from multimorph.fe._deps import require
-from multimorph.fe._material import felupe_umat
+from multimorph.fe.engine._material import felupe_umat
 from multimorph.materials import Material
 
 __all__ = ["AssemblyStats", "PressureProblem"]
@@ -73,22 +73,22 @@ class _ActiveSum:
 
     def _matches(self, mats: Sequence[sp.csr_matrix]) -> bool:
         return len(mats) == len(self._patterns) and all(
-            np.array_equal(m.indptr, ip) and np.array_equal(m.indices, ix)
-            for m, (ip, ix) in zip(mats, self._patterns, strict=True))
+            np.array_equal(matrix.indptr, ip) and np.array_equal(matrix.indices, ix)
+            for matrix, (ip, ix) in zip(mats, self._patterns, strict=True))
 
     def _build(self, mats: Sequence[sp.csr_matrix]) -> None:
         n, pos = self.n, self._pos
         keys = []
-        for m in mats:
-            rows = pos[np.repeat(np.arange(m.shape[0]), np.diff(m.indptr))]
-            cols = pos[m.indices]
+        for matrix in mats:
+            rows = pos[np.repeat(np.arange(matrix.shape[0]), np.diff(matrix.indptr))]
+            cols = pos[matrix.indices]
             keys.append(np.where((rows >= 0) & (cols >= 0), rows * n + cols, -1))
         union = np.unique(np.concatenate([k[k >= 0] for k in keys]))
         self.nnz = len(union)
         # entries on a fixed DOF go to one extra slot, dropped after the sum
         self._map = np.concatenate([np.where(k >= 0, np.searchsorted(union, k), self.nnz)
                                     for k in keys])
-        self._patterns = [(m.indptr.copy(), m.indices.copy()) for m in mats]
+        self._patterns = [(matrix.indptr.copy(), matrix.indices.copy()) for matrix in mats]
         counts = np.bincount(union // n, minlength=n)
         self._indptr = np.concatenate([[0], np.cumsum(counts)]).astype(np.int32)
         self._indices = (union % n).astype(np.int32)
@@ -97,8 +97,8 @@ class _ActiveSum:
                  ) -> sp.csr_matrix:
         if not self._matches(mats):
             self._build(mats)
-        values = np.concatenate([m.data if w == 1.0 else w * m.data
-                                 for m, w in zip(mats, weights, strict=True)])
+        values = np.concatenate([matrix.data if w == 1.0 else w * matrix.data
+                                 for matrix, w in zip(mats, weights, strict=True)])
         data = np.bincount(self._map, weights=values, minlength=self.nnz + 1)
         K = sp.csr_matrix((data[:-1], self._indices.copy(), self._indptr.copy()),
                           shape=(self.n, self.n))
@@ -120,25 +120,25 @@ class _MeanDilatationBody:
     def sync(self) -> None:
         """Set the dual fields to their exact values at the current displacement."""
         res = self.solid.results
-        st = res.state
-        res.kinematics = st.F = self.field.extract(out=res.kinematics)
-        st.u[:] = self.field[0].values
-        st.J[:] = st.volume() / self.solid.V
-        st.p[:] = self.solid.bulk * (st.J - 1.0)
+        state = res.state
+        res.kinematics = state.F = self.field.extract(out=res.kinematics)
+        state.u[:] = self.field[0].values
+        state.J[:] = state.volume() / self.solid.V
+        state.p[:] = self.solid.bulk * (state.J - 1.0)
 
     def snapshot(self) -> tuple[Any, ...]:
         """Copies of the dual fields, the displacement they were updated from and F."""
         res = self.solid.results
-        st = res.state
-        return st.u.copy(), st.J.copy(), st.p.copy(), [k.copy() for k in res.kinematics]
+        state = res.state
+        return state.u.copy(), state.J.copy(), state.p.copy(), [k.copy() for k in res.kinematics]
 
     def restore(self, snap: tuple[Any, ...]) -> None:
         res = self.solid.results
-        st = res.state
+        state = res.state
         u, J, p, kin = snap
-        st.u[:] = u
-        st.J[:] = J
-        st.p[:] = p
+        state.u[:] = u
+        state.J[:] = J
+        state.p[:] = p
         for a, b in zip(res.kinematics, kin, strict=True):
             a[...] = b
 
