@@ -9,7 +9,7 @@ run's own message.
 Examples
 --------
 >>> Outcome.MAX_STEPS.message
-'ran out of steps before p_max (raise the step limit or the largest step)'
+'ran out of steps before p_max (the path is too long to trace up to it)'
 >>> Outcome.from_code(0), Outcome.from_code(0).ok
 (<Outcome.COMPLETED: 'completed'>, True)
 >>> Outcome.CONVERGED == "converged"
