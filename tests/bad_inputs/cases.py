@@ -410,8 +410,6 @@ def design_cases() -> Iterator[Case]:
                f"{st0}.pressure")
     yield case("units", "pressure-length", 'pressure = "30 kPa"', 'pressure = "30 mm"',
                f"{st0}.pressure")
-    yield case("huge", "pressure-above-supply", 'band = ["30 kPa", "50 kPa"]',
-               'band = ["30 kPa", "90 kPa"]', "max_pressure")
     yield case("unknown-key", "pressure-and-band", 'pressure = "30 kPa"',
                'pressure = "30 kPa"\nband = ["10 kPa", "30 kPa"]', st0)
     yield case("sign", "band-reversed", 'band = ["30 kPa", "50 kPa"]',

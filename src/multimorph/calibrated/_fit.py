@@ -9,9 +9,11 @@ For each kind of cell (bending, stretching, tilted):
 3. a multi-output GP (:mod:`._gp`) from inputs to outputs, trained on the designs of the
    calibration split (the held-out 20 % and the 24-design grid are never seen).
 
-For speed the Ritz features are themselves emulated: a GP over the groups trained on the
-Ritz training table (:mod:`._ritz_table`), one for the bending box (bending and tilted
-cells) and one for the stretching box. Everything is saved to ``data/model.npz`` with its
+The shipped model computes each cell's Ritz features with the Ritz model at run time (the
+cost of one batched Ritz trace). Optionally (``fit model --emulators``) they are emulated
+instead: a GP over the groups trained on the Ritz table (:mod:`._ritz_table`), one for the
+bending box (bending and tilted cells) and one for the stretching box; faster, but the
+emulator's own error adds to the model's. Everything is saved to ``data/model.npz`` with its
 provenance (``data/model.json``).
 """
 
@@ -214,23 +216,31 @@ def emulated_features(emu: MultiOutputGP, box: Box, cells: list[Any],
     return out
 
 
-def fit_and_save() -> None:
-    """Fit every kind and emulator from the shipped data; write model.npz and model.json."""
+def fit_and_save(*, emulators: bool = False) -> None:
+    """Fit every kind from the shipped data (and, with ``emulators``, the Ritz-feature
+    emulators from the Ritz table); write model.npz and model.json.
+
+    Without emulators the model computes every cell's Ritz features with the Ritz model at
+    run time (one batched Ritz trace per batch of cells: the cost of the Ritz model itself).
+    """
     from multimorph._provenance import code_version
-    from multimorph.calibrated._ritz_table import load_ritz_table
 
     t0 = time.monotonic()
     sets = load_reference()
-    table = load_ritz_table()
+    table: dict[str, dict[str, np.ndarray]] = {}
+    if emulators:
+        from multimorph.calibrated._ritz_table import load_ritz_table
+
+        table = load_ritz_table()
     arrays: dict[str, np.ndarray] = {"t_grid": T_GRID}
     manifest: dict[str, Any] = {"format": "multimorph-calibrated-model/1",
                                 "code_version": code_version(), "kinds": {},
                                 "emulators": {}}
-    emulators: dict[str, tuple[MultiOutputGP, Box]] = {}
+    emus: dict[str, tuple[MultiOutputGP, Box]] = {}
     for family, tab in table.items():
         box = Box.from_spec(family, reference_spec(family))
         emu = fit_emulator(family, tab, box)
-        emulators[family] = (emu, box)
+        emus[family] = (emu, box)
         arrays.update(emu.to_arrays(f"emulator/{family}/"))
         manifest["emulators"][family] = {"designs": len(emu.x),
                                          "length_scales": emu.length.round(4).tolist()}
@@ -239,9 +249,9 @@ def fit_and_save() -> None:
         if not any(s in sets for s in KIND_SETS[kind]):
             continue
         data = fe_training_data(kind, sets)
-        if FAMILY[kind] in emulators:
+        if FAMILY[kind] in emus:
             # the GP learns on the features it will be given at run time: the emulator's
-            data = replace(data, features=emulated_features(*emulators[FAMILY[kind]],
+            data = replace(data, features=emulated_features(*emus[FAMILY[kind]],
                                                             data.cells, data.features))
         train = ~data.holdout & np.all(np.isfinite(kind_features(
             kind, data.features, _tilts(data))), axis=1)

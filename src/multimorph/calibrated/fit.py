@@ -1,7 +1,7 @@
 """Fit the calibrated cell model (and compute what it needs) from the shipped data.
 
     python -m multimorph.calibrated.fit ritz-table [--samples 2048]   # Ritz features (resumable)
-    python -m multimorph.calibrated.fit model                          # fit data/model.npz
+    python -m multimorph.calibrated.fit model [--emulators]            # fit data/model.npz
 
 The FE reference data set comes first (``python -m multimorph.calibrated.build_dataset``).
 """
@@ -17,7 +17,10 @@ def main(argv: list[str] | None = None) -> int:
     rt = sub.add_parser("ritz-table", help="Ritz features over the calibrated boxes")
     rt.add_argument("--samples", type=int, default=2048)
     rt.add_argument("--chunk", type=int, default=256)
-    sub.add_parser("model", help="fit the calibrated model to the FE reference data")
+    md = sub.add_parser("model", help="fit the calibrated model to the FE reference data")
+    md.add_argument("--emulators", action="store_true",
+                    help="also emulate the Ritz features from the Ritz table (faster at run "
+                         "time, less accurate); default: exact Ritz features at run time")
     args = ap.parse_args(argv)
     if args.what == "ritz-table":
         from multimorph.calibrated._ritz_table import build_ritz_table
@@ -26,7 +29,7 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     from multimorph.calibrated._fit import fit_and_save
 
-    fit_and_save()
+    fit_and_save(emulators=args.emulators)
     return 0
 
 

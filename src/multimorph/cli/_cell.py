@@ -70,7 +70,7 @@ def _plot(response: Any, file: Path, title: str) -> None:
     a1.plot(p.pressure / 1e3, getattr(p, sig), "-", color="0.6", lw=1,
             label="equilibrium path")
     a1.plot(r.loading.pressure / 1e3, getattr(r.loading, sig), "C0-", lw=2, label="loading")
-    a2.plot(p.pressure / mu, getattr(p, sig) * scale, "C0-", lw=2)
+    a2.plot(p.pressure / mu, getattr(p, sig) * scale, "C0-", lw=2, label="equilibrium path")
     for key, value, color in (("Pc", ch.critical, "C3"), ("Ph", ch.hardening, "C2")):
         if value is None:
             continue
