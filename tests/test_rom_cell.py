@@ -143,7 +143,8 @@ def test_cli_json_keys_and_files(tmp_path):
     spec = tmp_path / "c.toml"
     spec.write_text(SPEC)
     out = tmp_path / "out"
-    res = _run(["cell", str(spec), "--pmax", "300 kPa", "--json", "--out", str(out)])
+    res = _run(["cell", str(spec), "--pmax", "300 kPa", "--json", "--out", str(out),
+                "--model", "ritz"])
     assert res.exit_code == 0, res.output
     data = json.loads(res.stdout)
     assert KEYS <= set(data)
@@ -151,6 +152,7 @@ def test_cli_json_keys_and_files(tmp_path):
     assert data["pressure"][-1] == pytest.approx(300e3)
     assert 0 < data["critical_pressure"] < data["hardening_pressure"] < 300e3
     assert data["failure_pressure"] is None
+    assert data["model"] == "ritz" and data["backend"] == "rom"
     np.testing.assert_allclose(data["bend_angle"], np.array(data["curvature"]) * 0.02)
     assert (out / "response.json").is_file() and (out / "curvature.png").stat().st_size > 1000
 

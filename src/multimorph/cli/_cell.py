@@ -1,4 +1,4 @@
-"""``multimorph cell``: the reduced model of one unit cell (κ(P), Pc, Ph, plots)."""
+"""``multimorph cell``: one unit cell (κ(P), Pc, Ph, plots) by the chosen cell model."""
 
 from __future__ import annotations
 
@@ -51,7 +51,27 @@ def cell_summary(response: Any) -> dict[str, Any]:
                       "curvature": response.unloading.curvature.tolist()},
         "max_bend_angle": float(np.max(path.curvature * d)),
         "backend": response.backend,
+        "model": response.meta.get("model", response.backend),
+        **({"calibration": response.meta["calibration"]}
+           if "calibration" in response.meta else {}),
     }
+
+
+def model_line(data: dict[str, Any]) -> str:
+    """Which model produced a cell result, and how far that model is from 3D FE."""
+    name = data.get("model", data.get("backend"))
+    cal = data.get("calibration") or {}
+    if name == "calibrated":
+        lo, hi = cal.get("critical_pressure_range") or (None, None)
+        band = (f"; Pc within {lo / 1e3:.3g} … {hi / 1e3:.3g} kPa (±1σ)"
+                if lo is not None and hi is not None else "")
+        return ("calibrated (Ritz corrected against 3D FE; held-out error in "
+                f"docs/validation.md){band}")
+    if name in ("ritz", "rom"):
+        why = (f" — outside the calibrated model's support ({cal['reason']})"
+               if cal.get("inside") is False else "")
+        return f"ritz (reduced model; Pc about 2 × the 3D FE's){why}"
+    return str(name)
 
 
 def _plot(response: Any, file: Path, title: str) -> None:
@@ -98,8 +118,12 @@ def cell(
         "--out", "-o", help="Output folder (default multimorph-out/cell-<spec name>).")
                    ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the JSON summary.")] = False,
+    model: Annotated[str | None, typer.Option(
+        "--model", help="Cell model: calibrated (Ritz corrected against 3D FE), ritz (alias "
+                        "rom: the reduced model, about twice as stiff as FE) or fe (3D FE, "
+                        "minutes). Default: multimorph.models.DEFAULT_MODEL.")] = None,
 ) -> None:
-    """Reduced model of a unit cell: κ(P), Pc, Ph and a plot.
+    """A unit cell by the chosen cell model: κ(P), Pc, Ph and a plot.
 
     Example: multimorph cell examples/cell.toml --pmax "300 kPa" --out out/cell
 
@@ -109,9 +133,11 @@ def cell(
     from multimorph.errors import SpecError
     from multimorph.geometry import CellGeometry
     from multimorph.io import atomic_output_dir, claim_output, load_toml, write_json
+    from multimorph.models import cell_model, model_name
 
     with handle_errors(as_json):
         # everything is checked before the model runs
+        name = model_name(model, field="--model")
         table = load_toml(spec)
         check_tables(table, ("cell",), spec)
         if "cell" not in table:
@@ -122,9 +148,7 @@ def cell(
                  else pressure_option(pmax, "--pmax", mu=geometry.mu))
         folder = out if out is not None else Path("multimorph-out") / f"cell-{spec.stem}"
         with claim_output(folder, files=FILES):
-            from multimorph.rom import solve_cell
-
-            response = solve_cell(geometry, p_max)
+            response = cell_model(name)(geometry, p_max)
             data = cell_summary(response)
             with atomic_output_dir(folder) as tmp:
                 write_json(tmp / "response.json", data)
@@ -141,6 +165,7 @@ def cell(
     console.print(f"[bold]cell[/] {spec} — μ = {mu / 1e3:.4g} kPa, d = "
                   f"{response.length * 1e3:.4g} mm, {len(response.path)} path points up to "
                   f"{p_max / 1e3:.4g} kPa")
+    console.print(f"  model: {model_line(data)}", highlight=False)
     kind = f" ({ch.critical_kind})" if ch.critical_kind else ""
     console.print(f"  critical pressure Pc{kind}: {kpa(ch.critical)}")
     console.print(f"  hardening pressure Ph: {kpa(ch.hardening)}")

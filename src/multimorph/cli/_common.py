@@ -97,9 +97,30 @@ def fail(message: str, *, as_json: bool = False) -> None:
 
 @contextmanager
 def handle_errors(as_json: bool = False) -> Iterator[None]:
-    """Turn :class:`MultimorphError` (and file errors) into :func:`fail`."""
+    """Turn :class:`MultimorphError` (and file errors) into :func:`fail`; a cell outside the
+    calibrated model's support (``CalibrationWarning``) is told once per message on stderr,
+    as a one-line warning (the JSON says it too: ``calibration.inside``)."""
+    import warnings
+
+    told: set[str] = set()
+
+    def tell(message: Any, category: Any, *args: Any, **kwargs: Any) -> None:
+        if category.__name__ != "CalibrationWarning":
+            shown(message, category, *args, **kwargs)
+            return
+        text = str(message)
+        if text not in told:
+            told.add(text)
+            err_console.print(f"[yellow]warning:[/] {text}", highlight=False, soft_wrap=True)
+
+    shown = warnings.showwarning
     try:
-        yield
+        with warnings.catch_warnings():
+            from multimorph.calibrated import CalibrationWarning
+
+            warnings.simplefilter("always", CalibrationWarning)
+            warnings.showwarning = tell
+            yield
     except MultimorphError as exc:
         fail(str(exc), as_json=as_json)
     except OSError as exc:  # a file or folder the run could not read or write

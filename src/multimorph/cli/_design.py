@@ -61,6 +61,10 @@ def design_command(
         "--graded/--no-graded", help="Realise a stage whose band is wider than one module "
         "can span (Ph/Pc > 1.4) by graded modules of the same kind in series.")] = True,
     as_json: Annotated[bool, typer.Option("--json", help="Print the JSON report.")] = False,
+    model: Annotated[str | None, typer.Option(
+        "--model", help="Cell model of the search: calibrated (Ritz corrected against 3D FE) "
+                        "or ritz (alias rom: the reduced model, about twice as stiff as FE). "
+                        "Default: multimorph.models.DEFAULT_MODEL.")] = None,
 ) -> None:
     """Design a device whose predicted sequence of motions meets a target.
 
@@ -78,9 +82,11 @@ def design_command(
     from multimorph.design._verify import fe_available
     from multimorph.errors import MultimorphError, SpecError
     from multimorph.io import atomic_output_dir, claim_output, load_toml
+    from multimorph.models import batch_model, model_name
     from multimorph.units import to_si
 
     with handle_errors(as_json), ExitStack() as hold:
+        name = model_name(model, allowed=("calibrated", "ritz"), field="--model")
         with in_file(target):
             spec = target_from_spec(load_toml(target))
         tol = to_si(wall_tolerance, "m", field="--wall-tolerance")
@@ -105,7 +111,9 @@ def design_command(
             def progress(done: int, total: int, phase: str) -> None:
                 bar.update(task, completed=min(done, total), description=f"search: {phase}")
 
-            run = run_design(spec, settings, model=rom_batch_model(vectorised),
+            run = run_design(spec, settings,
+                             model=(rom_batch_model(vectorised) if name == "ritz"
+                                    else batch_model(name)),
                              robustness_samples=robustness, check_fe=verify_fe,
                              progress=progress,
                              stage=lambda text: bar.update(task, description=text))
@@ -114,14 +122,18 @@ def design_command(
         result = run.result
         folder = out if out is not None else Path("multimorph-out") / f"design-{target.stem}"
         header = (f"designed by 'multimorph design {target.name} --seed {seed} "
-                  f"--budget {budget}'" + ("" if result.feasible else
+                  f"--budget {budget} --model {name}'" + ("" if result.feasible else
                                            "\nINFEASIBLE target: closest design only"))
         with atomic_output_dir(folder) as tmp:
             report = write_design_report(run, tmp, header=header)
         if as_json:
-            emit_json({**report, "out": str(folder)})
+            emit_json({**report, "model": name, "out": str(folder)})
         else:
             _print_summary(result, run.robustness, folder, report["files"])
+            console.print(f"  cell model: {name}" + (
+                " (Ritz corrected against 3D FE; errors in docs/validation.md)"
+                if name == "calibrated" else " (reduced model; Pc about 2 × the 3D FE's)"),
+                highlight=False)
         if not result.feasible:
             raise typer.Exit(EXIT_INFEASIBLE)
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import csv
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import numpy as np
 import typer
@@ -70,6 +70,20 @@ def _write(result: object, folder: Path, files: list[str], pressures: list[float
                 write_animation(result, tmp / "morph.gif", frames=frames)
 
 
+def _model_words(summary: dict[str, Any]) -> str:
+    """The cell model(s) of a device result, and how far each is from 3D FE."""
+    words = {"calibrated": "calibrated (Ritz corrected against 3D FE; errors in "
+                           "docs/validation.md)",
+             "ritz": "ritz (reduced model; Pc about 2 × the 3D FE's)", "fe": "fe (3D FE)"}
+    fell_back = [n for n, m in summary["modules"].items()
+                 if (m.get("calibration") or {}).get("inside") is False]
+    models = summary["model"] if isinstance(summary["model"], list) else [summary["model"]]
+    text = "; ".join(words.get(m, m) for m in models)
+    if fell_back:
+        text += f" — Ritz fallback outside the calibrated box for {', '.join(fell_back)}"
+    return text
+
+
 def simulate(
     spec: Annotated[Path, typer.Argument(help="Device spec (TOML): [device], [[module]].")],
     pmax: Annotated[str | None, typer.Option(
@@ -83,6 +97,11 @@ def simulate(
     frames: Annotated[int, typer.Option(min=0, max=MAX_FRAMES,
                                         help="GIF frames (0: no animation).")] = 24,
     as_json: Annotated[bool, typer.Option("--json", help="Print the JSON summary.")] = False,
+    model: Annotated[str | None, typer.Option(
+        "--model", help="Cell model: calibrated (Ritz corrected against 3D FE), ritz (alias "
+                        "rom: the reduced model, about twice as stiff as FE) or fe (3D FE of "
+                        "each distinct cell, minutes each). Default: "
+                        "multimorph.models.DEFAULT_MODEL.")] = None,
 ) -> None:
     """Simulate a device: per-module curves, the sequence of modes, shapes and an animation.
 
@@ -91,9 +110,11 @@ def simulate(
     from multimorph.device import device_from_spec, simulate_device
     from multimorph.errors import SpecError
     from multimorph.io import claim_output, load_toml
+    from multimorph.models import cell_model, model_name
 
     with handle_errors(as_json):
         # everything is checked before the model runs
+        name = model_name(model, field="--model")
         table = load_toml(spec)
         with in_file(spec):
             device = device_from_spec(table)
@@ -110,7 +131,8 @@ def simulate(
         files = list(FILES) + (["morph.gif"] if frames else [])
         with claim_output(folder, files=files):
             with console.status("tracing module responses…", spinner="dots"):
-                result = simulate_device(device, p_max)
+                result = simulate_device(
+                    device, p_max, cell_model=None if model is None else cell_model(name))
             _write(result, folder, files, pressures, frames)
         summary = {**result.to_dict(), "files": files}
         if as_json:
@@ -118,7 +140,8 @@ def simulate(
             return
         seq = result.sequence
         console.print(f"[bold]{device.name}[/]: {len(device.modules)} modules, "
-                      f"P up to {result.pmax / 1e3:.4g} kPa")
+                      f"P up to {result.pmax / 1e3:.4g} kPa; cell model: "
+                      f"{_model_words(summary)}", highlight=False)
         for name in seq.order:
             pc, ph = seq.windows[name]
             s = result.strains[name]

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
@@ -34,6 +34,10 @@ def sweep(
         "repeatable. Without it a spec can only name registered backends (rom, fe, installed "
         "entry points): a spec file never imports code.")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print a JSON summary.")] = False,
+    model: Annotated[str | None, typer.Option(
+        "--model", help="Cell model, overriding the spec's sweep.backend: calibrated (Ritz "
+                        "corrected against 3D FE) or ritz (alias rom: the reduced model, "
+                        "about twice as stiff as FE).")] = None,
 ) -> None:
     """Run a parameter sweep and store the results (Zarr) in a resumable folder.
 
@@ -58,6 +62,9 @@ def sweep(
 
     with handle_errors(as_json):
         folder = out if out is not None else Path("multimorph-out") / spec.stem
+        target: Any = spec
+        if model is not None:
+            target = with_model(spec, model)
         bar = Progress(TextColumn("sweep"), BarColumn(), MofNCompleteColumn(),
                        TextColumn("designs"), TimeElapsedColumn(), TimeRemainingColumn(),
                        console=err_console, transient=as_json)
@@ -71,7 +78,7 @@ def sweep(
 
         with claim_output(folder, in_place=True):
             try:
-                summary = run_sweep(spec, folder, scheduler=scheduler, workers=workers,
+                summary = run_sweep(target, folder, scheduler=scheduler, workers=workers,
                                     batch_size=batch_size, retries=retries,
                                     progress=progress, retry_failed=retry_failed,
                                     allow_plugins=tuple(allow_plugin or ()))
@@ -102,6 +109,21 @@ def sweep(
                               f"({summary.n_failed}); the errors are in {summary.results}",
                               highlight=False, soft_wrap=True)
             raise typer.Exit(1)
+
+
+def with_model(spec: Path, model: str) -> Any:
+    """The sweep spec at ``spec`` with its backend set to the cell model ``model`` (also in
+    its raw table, so a resumed sweep must use the same model)."""
+    import dataclasses
+
+    from multimorph.models import model_name
+    from multimorph.sweep import load_sweep_spec
+
+    name = model_name(model, allowed=("calibrated", "ritz"), field="--model")
+    loaded = load_sweep_spec(spec)
+    raw = dict(loaded.raw)
+    raw["sweep"] = {**raw.get("sweep", {}), "backend": name}
+    return dataclasses.replace(loaded, backend=name, raw=raw)
 
 
 def register(app: typer.Typer) -> None:

@@ -1,7 +1,11 @@
 """Simulate a device: one cell response per distinct cell, module strains, shapes, sequence.
 
-The cell backend is one interface, ``cell_model(cell, p_max) -> Response``: the reduced
-model by default (:func:`multimorph.rom.solve_cell`); the FE backend fits the same slot.
+The cell backend is one interface, ``cell_model(cell, p_max) -> Response``: the default
+model of :mod:`multimorph.models` (``DEFAULT_MODEL``) unless one is given; the calibrated,
+Ritz and FE models fit the same slot. A model with ``tilted = True`` is given a twisting
+module's cell as a :class:`~multimorph.geometry.TiltedCell` and answers its strip shear
+(``path.extra["shear"]``); others get the straight cell and the module applies the Ritz rule
+γ = ε sin 2β.
 """
 
 from __future__ import annotations
@@ -17,7 +21,7 @@ from multimorph.device._device import Device
 from multimorph.device._kinematics import RodStrains, centerline, segment_transform
 from multimorph.device._modules import ModuleStrains, module_strains
 from multimorph.device._sequence import ModuleCurve, SequenceReport, analyse_sequence
-from multimorph.geometry import CellGeometry
+from multimorph.geometry import CellGeometry, TiltedCell
 from multimorph.response import Response
 
 __all__ = ["DeviceResult", "default_cell_model", "simulate_device"]
@@ -25,11 +29,20 @@ __all__ = ["DeviceResult", "default_cell_model", "simulate_device"]
 CellModel = Callable[[CellGeometry, float], Response]
 
 
-def default_cell_model(cell: CellGeometry, p_max: float) -> Response:
-    """The reduced-order cell model (:func:`multimorph.rom.solve_cell`)."""
-    from multimorph.rom import solve_cell
+def default_cell_model(cell: CellGeometry | TiltedCell, p_max: float) -> Response:
+    """The default cell model (:data:`multimorph.models.DEFAULT_MODEL`)."""
+    from multimorph.models import cell_model
 
-    return solve_cell(cell, p_max)
+    return cell_model()(cell, p_max)
+
+
+default_cell_model.tilted = True  # type: ignore[attr-defined]
+
+
+def _model_of(response: Response) -> str:
+    """Which cell model made a response (``meta["model"]``, else its backend)."""
+    name = str(response.meta.get("model", response.backend))
+    return "ritz" if name == "rom" else name
 
 
 def _rot_y(angle: float) -> np.ndarray:
@@ -106,15 +119,20 @@ class DeviceResult:
         return lines
 
     def to_dict(self) -> dict[str, Any]:
+        models = sorted({_model_of(s.response) for s in self.strains.values()})
         out: dict[str, Any] = {"device": self.device.name, "pmax": self.pmax,
+                               "model": models[0] if len(models) == 1 else models,
                                "modules": {}, "sequence": self.sequence.to_dict()}
         for name, strain in self.strains.items():
             ch = strain.response.characteristic
             module = strain.module
+            meta = strain.response.meta
             out["modules"][name] = {
                 "kind": module.kind, "mode": module.mode, "cells": module.n_cells,
                 "count": module.count, "length": module.length,
                 "shear_modulus": strain.response.shear_modulus,
+                "model": _model_of(strain.response),
+                **({"calibration": meta["calibration"]} if "calibration" in meta else {}),
                 **ch.to_dict(),
                 "pressure": strain.pressure, "bend": strain.bend, "twist": strain.twist,
                 "stretch": strain.stretch, "measure": strain.measure,
@@ -131,10 +149,13 @@ def simulate_device(device: Device, p_max: float | None = None, *,
     p_max = float(device.pmax if p_max is None else p_max)
     model = cell_model or default_cell_model
     cache: dict[int, Response] = {}
-    keys: dict[int, CellGeometry] = {}
+    keys: dict[int, CellGeometry | TiltedCell] = {}
     strains: dict[str, ModuleStrains] = {}
+    tilted = bool(getattr(model, "tilted", False))
     for module in device.modules:
-        cell = module.cell
+        cell: CellGeometry | TiltedCell = module.cell
+        if tilted and module.kind == "twisting":
+            cell = TiltedCell(module.cell, module.tilt)  # the model answers the tilted cell
         key = next((k for k, c in keys.items() if c == cell), None)
         if key is None:
             key = len(keys)
