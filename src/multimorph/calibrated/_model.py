@@ -47,6 +47,10 @@ __all__ = ["SUPPORT_CORRELATION", "CalibratedModel", "CalibrationWarning", "load
 #: this correlated with it (kernel value); beyond the last supported volume the predicted
 #: path ends (the FE data set does not say what happens there for such a cell).
 SUPPORT_CORRELATION = 0.3
+#: The FE reference data were traced to this multiple of each design's Ritz Pc (the data
+#: set specs' ``pmax_factor``): the calibrated path ends there too (beyond it the model
+#: would extrapolate in pressure).
+DATA_PMAX_FACTOR = 0.85
 #: Wall laws the emulated Ritz features stand for (others trace the Ritz model itself).
 _EMULATED_LAWS = ("gent",)
 
@@ -72,6 +76,7 @@ class GridPrediction:
     values: np.ndarray        # (n, J, Q)
     std_log_p: np.ndarray     # (n, J): predictive std of log(P/μ)
     t_end: np.ndarray         # (n,): the last supported log volume ratio
+    p_end: np.ndarray         # (n,): the last supported pressure (Pa; inf: no bound)
     inside: np.ndarray        # (n,) bool
     outside: list[dict[str, tuple[float, float, float]]]
 
@@ -117,13 +122,14 @@ class CalibratedModel:
 
     # ------------------------------------------------------------------ features
     def _features(self, kind: str, cells: Sequence[CellGeometry | TiltedCell],
-                  groups: np.ndarray) -> np.ndarray:
+                  groups: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         fam = FAMILY[kind]
         straight = [c.cell if isinstance(c, TiltedCell) else c for c in cells]
         emulable = np.array([c.material.model in _EMULATED_LAWS
                              and c.bottom_material is not None
                              and c.bottom_material.model in _EMULATED_LAWS for c in straight])
         feats = np.full((len(cells), 4), np.nan)
+        p_end = np.full(len(cells), np.inf)
         if fam not in self.emulators:
             emulable[:] = False
         if emulable.any():
@@ -132,12 +138,14 @@ class CalibratedModel:
                                    for c, e in zip(cells, emulable, strict=True) if e])
             feats[emulable] = self.emulators[fam].predict(ebox.scaled(fam_groups))
         if (~emulable).any():
-            from multimorph.calibrated._ritz import ritz_features
+            from multimorph.calibrated._ritz import ritz_features_and_pc
 
-            feats[~emulable] = ritz_features([c for c, e in zip(cells, emulable, strict=True)
-                                              if not e])
+            exact, pcs = ritz_features_and_pc([c for c, e in zip(cells, emulable, strict=True)
+                                               if not e])
+            feats[~emulable] = exact
+            p_end[~emulable] = np.where(np.isfinite(pcs), DATA_PMAX_FACTOR * pcs, np.inf)
         tilts = (np.array([abs(c.tilt) for c in cells]) if kind == "twisting" else None)
-        return kind_features(kind, feats, tilts)
+        return kind_features(kind, feats, tilts), p_end
 
     # ------------------------------------------------------------------ grid
     def grid(self, cells: Sequence[CellGeometry | TiltedCell]) -> GridPrediction:
@@ -151,7 +159,7 @@ class CalibratedModel:
         groups = np.array([k.box.values_of(g) for g in gdicts])
         outside = [k.box.outside(g) for g in gdicts]
         inside = np.array([not o for o in outside])
-        kf = self._features(kind, cells, groups)
+        kf, p_end = self._features(kind, cells, groups)
         x = model_inputs(k.box, groups, kf, k.fmean, k.fstd)
         ks = matern52(x, k.gp.x, k.gp.length)
         lin = np.column_stack([np.ones(len(x)), x]) @ k.gp.coef
@@ -171,7 +179,7 @@ class CalibratedModel:
         ok = best >= SUPPORT_CORRELATION
         last = np.where(ok.any(axis=1), J - 1 - np.argmax(ok[:, ::-1], axis=1), 0)
         t_end = T_GRID[last]
-        return GridPrediction(kind, values, std_log_p, t_end, inside, outside)
+        return GridPrediction(kind, values, std_log_p, t_end, p_end, inside, outside)
 
     # ------------------------------------------------------------------ responses
     def responses(self, cells: Sequence[CellGeometry | TiltedCell], p_max: float, *,
@@ -243,7 +251,9 @@ class CalibratedModel:
         c = cell.cell if isinstance(cell, TiltedCell) else cell
         t_end = float(pred.t_end[r])
         path = path_from_grid(pred.values[r], cell, t_end=t_end)
-        path, reached = _truncate(path, p_max)
+        p_data = float(pred.p_end[r])
+        path, reached = _truncate(path, min(p_max, p_data))
+        reached = reached and p_max <= p_data
         signal = {"bending": "curvature", "stretching": "axial_stretch",
                   "twisting": "twist_rate"}[pred.kind]
         if pred.kind == "twisting":
@@ -272,6 +282,7 @@ class CalibratedModel:
                     "critical_pressure_range": band(ch.critical),
                     "hardening_pressure_range": band(ch.hardening),
                     "volume_ratio_end": math.exp(float(tt[-1])),
+                    "data_pressure_end": p_data if math.isfinite(p_data) else None,
                     "reached_p_max": reached,
                     "model_version": self.manifest.get("code_version", "")}}
         return resp.with_meta(**meta)

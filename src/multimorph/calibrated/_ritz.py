@@ -142,8 +142,29 @@ def ritz_features(cells: Sequence[CellGeometry | TiltedCell]) -> np.ndarray:
     """:data:`FEATURE_NAMES` of every cell, shape (n, 4) (NaN where not reached): the
     pressures at two volumes, the signal and the mid-height strain (the twisting modules'
     ε) at the smaller one."""
+    return ritz_features_and_pc(cells)[0]
+
+
+def ritz_features_and_pc(cells: Sequence[CellGeometry | TiltedCell],
+                         ) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`ritz_features` and each straight cell's Ritz critical pressure (Pa; NaN when
+    its Ritz path has none below :data:`RITZ_PMAX` μ): the FE reference data were traced
+    to a multiple of it, so it bounds the pressures the calibrated model has data for."""
+    from multimorph.response import build_response
+
     paths = ritz_paths(cells)
-    return np.array([path_features(p, c) for p, c in zip(paths, cells, strict=True)])
+    feats = np.array([path_features(p, c) for p, c in zip(paths, cells, strict=True)])
+    pcs = np.full(len(cells), np.nan)
+    for i, (p, c) in enumerate(zip(paths, cells, strict=True)):
+        straight = _straight(c)
+        try:
+            pc = build_response(p, length=straight.length, shear_modulus=straight.mu,
+                                backend="rom", signal=straight.signal).characteristic.critical
+        except Exception:  # a path too short to read: no bound
+            pc = None
+        if pc is not None:
+            pcs[i] = pc
+    return feats, pcs
 
 
 #: Names of the linear-response features (:func:`linear_features`).

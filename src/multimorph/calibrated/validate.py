@@ -84,9 +84,12 @@ def _table(rows: list[DesignComparison | None]) -> dict[str, Any]:
 
 def _fmt(s: dict[str, Any], key: str) -> str:
     d = s[key]
+    miss = s.get(f"{key}_missing", 0)
+    n = f"{d.get('n', 0)}" + (f" (+{miss} one-sided)" if miss else "")
     if not d.get("n"):
-        return "— | — | —"
-    return f"{100 * d['median']:.1f} % | {100 * d['p90']:.1f} % | {100 * d['max']:.1f} %"
+        return f"{n} | — | — | —"
+    return (f"{n} | {100 * d['median']:.1f} % | {100 * d['p90']:.1f} % | "
+            f"{100 * d['max']:.1f} %")
 
 
 def plot(results: list[dict[str, Any]], out: Path) -> list[str]:
@@ -168,9 +171,10 @@ def main(argv: list[str] | None = None) -> int:
     results = [evaluate(k, s) for k, s in CHECKS if s in sets]
     files = plot(results, Path(args.out))
     metrics: dict[str, Any] = {}
-    print("| kind | set | model | designs | Pc median / p90 / max | Ph median / p90 / max | "
-          "curve ≤ 10 % | curve error median / p90 / max |")
-    print("|---|---|---|---|---|---|---|---|")
+    print("| kind | set | model | designs | Pc n (one-sided) | Pc median | p90 | max | "
+          "Ph n (one-sided) | Ph median | "
+          "p90 | max | curve ≤ 10 % | curve n | curve error median | p90 | max |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for res in results:
         for model in ("calibrated", "ritz"):
             s = _table(res[model])
