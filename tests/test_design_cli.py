@@ -29,7 +29,8 @@ def app(monkeypatch) -> typer.Typer:
 
 
 def run(app, *args):
-    return CliRunner().invoke(app, ["design", *map(str, args)])
+    # the stand-in replaces the reduced model's batch model: select it with --model ritz
+    return CliRunner().invoke(app, ["design", *map(str, args), "--model", "ritz"])
 
 
 def test_design_writes_device_report_and_plots(app, tmp_path):

@@ -160,6 +160,10 @@ class CalibratedModel:
         outside = [k.box.outside(g) for g in gdicts]
         inside = np.array([not o for o in outside])
         kf, p_end = self._features(kind, cells, groups)
+        # a cell whose Ritz path does not reach the feature volumes has no inputs: it is
+        # answered like a cell outside the box (see responses)
+        inside &= np.all(np.isfinite(kf), axis=1)
+        kf = np.where(np.isfinite(kf), kf, k.fmean)
         x = model_inputs(k.box, groups, kf, k.fmean, k.fstd)
         ks = matern52(x, k.gp.x, k.gp.length)
         lin = np.column_stack([np.ones(len(x)), x]) @ k.gp.coef
@@ -212,6 +216,10 @@ class CalibratedModel:
             for r, i in enumerate(idx):
                 if not pred.inside[r]:
                     sup = self.support(cells[i])
+                    if sup["inside"]:  # in the box, but without Ritz features
+                        sup = {**sup, "inside": False, "reason": (
+                            "its Ritz path does not reach the volumes the model's features "
+                            "are read at")}
                     out[i] = self._fallback(cells[i], p_max, sup, fallback)
                     continue
                 try:

@@ -30,10 +30,12 @@ CellModel = Callable[[CellGeometry, float], Response]
 
 
 def default_cell_model(cell: CellGeometry | TiltedCell, p_max: float) -> Response:
-    """The default cell model (:data:`multimorph.models.DEFAULT_MODEL`)."""
-    from multimorph.models import cell_model
+    """The default cell model, :data:`multimorph.models.DEFAULT_MODEL`: the calibrated model
+    (imported from :mod:`multimorph.calibrated` itself, not through :mod:`multimorph.models`,
+    whose FE model depends on this package)."""
+    from multimorph.calibrated import load_model
 
-    return cell_model()(cell, p_max)
+    return load_model().response(cell, p_max)
 
 
 default_cell_model.tilted = True  # type: ignore[attr-defined]
