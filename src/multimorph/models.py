@@ -94,14 +94,20 @@ def cell_model(name: str | None = None, **fe_settings: Any) -> CellModel:
     return fe
 
 
-def batch_model(name: str | None = None) -> Callable[[Sequence[Any], float], list[Any]]:
-    """``fn(cells, p_max) -> list[Response | Exception]`` of the model ``name``."""
+def batch_model(name: str | None = None, *, fallback: bool = True,
+                ) -> Callable[[Sequence[Any], float], list[Any]]:
+    """``fn(cells, p_max) -> list[Response | Exception]`` of the model ``name``.
+
+    ``fallback=False`` (calibrated model): a cell outside the calibrated support gets an
+    exception instead of the Ritz model's answer, so a search (the designer) stays where
+    the calibrated model holds rather than mixing two models in one objective.
+    """
     key = model_name(name)
     if key == "calibrated":
         def calibrated(cells: Sequence[Any], p_max: float) -> list[Any]:
             from multimorph.calibrated import load_model
 
-            return load_model().responses(list(cells), p_max)
+            return load_model().responses(list(cells), p_max, fallback=fallback)
 
         calibrated.batched = True  # type: ignore[attr-defined]
         return calibrated

@@ -95,6 +95,10 @@ def fail(message: str, *, as_json: bool = False) -> None:
     raise typer.Exit(EXIT_ERROR)
 
 
+#: Distinct calibrated-model warnings a command prints before it only counts them.
+MAX_WARNINGS = 3
+
+
 @contextmanager
 def handle_errors(as_json: bool = False) -> Iterator[None]:
     """Turn :class:`MultimorphError` (and file errors) into :func:`fail`; a cell outside the
@@ -111,7 +115,9 @@ def handle_errors(as_json: bool = False) -> Iterator[None]:
         text = str(message)
         if text not in told:
             told.add(text)
-            err_console.print(f"[yellow]warning:[/] {text}", highlight=False, soft_wrap=True)
+            if len(told) <= MAX_WARNINGS:
+                err_console.print(f"[yellow]warning:[/] {text}", highlight=False,
+                                  soft_wrap=True)
 
     shown = warnings.showwarning
     try:
@@ -120,7 +126,14 @@ def handle_errors(as_json: bool = False) -> Iterator[None]:
 
             warnings.simplefilter("always", CalibrationWarning)
             warnings.showwarning = tell
-            yield
+            try:
+                yield
+            finally:
+                if len(told) > MAX_WARNINGS:
+                    err_console.print(
+                        f"[yellow]warning:[/] … and {len(told) - MAX_WARNINGS} more cells "
+                        "outside the calibrated model's support (see above)",
+                        highlight=False, soft_wrap=True)
     except MultimorphError as exc:
         fail(str(exc), as_json=as_json)
     except OSError as exc:  # a file or folder the run could not read or write

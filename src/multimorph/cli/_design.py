@@ -62,8 +62,9 @@ def design_command(
         "can span (Ph/Pc > 1.4) by graded modules of the same kind in series.")] = True,
     as_json: Annotated[bool, typer.Option("--json", help="Print the JSON report.")] = False,
     model: Annotated[str | None, typer.Option(
-        "--model", help="Cell model of the search: calibrated (Ritz corrected against 3D FE) "
-                        "or ritz (alias rom: the reduced model, about twice as stiff as FE). "
+        "--model", help="Cell model of the search: calibrated (Ritz corrected against 3D FE; "
+                        "the search keeps to its calibrated box) or ritz (alias rom: the "
+                        "reduced model, about twice as stiff as FE). "
                         "Default: multimorph.models.DEFAULT_MODEL.")] = None,
 ) -> None:
     """Design a device whose predicted sequence of motions meets a target.
@@ -113,7 +114,7 @@ def design_command(
 
             run = run_design(spec, settings,
                              model=(rom_batch_model(vectorised) if name == "ritz"
-                                    else batch_model(name)),
+                                    else batch_model(name, fallback=False)),
                              robustness_samples=robustness, check_fe=verify_fe,
                              progress=progress,
                              stage=lambda text: bar.update(task, description=text))
