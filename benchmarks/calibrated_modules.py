@@ -85,7 +85,11 @@ def main() -> None:
             r = m(cell, float(max(path["pressure"])) * 1.2)
             c = compare(r, fe_resp, kind)
             d15 = (c.y15_model - c.y15_fe) / c.y15_fe if c.y15_fe else float("nan")
-            print(f"{name:<14} {label:<11} {c.pc_fe / 1e3:8.2f} {c.pc_model / 1e3:9.2f} "
+
+            def kpa(p: float | None) -> str:
+                return "—" if p is None else f"{p / 1e3:.2f}"
+
+            print(f"{name:<14} {label:<11} {kpa(c.pc_fe):>8} {kpa(c.pc_model):>9} "
                   f"{100 * c.pc_error:6.1f}% {c.y15_fe:16.4f} {c.y15_model:8.4f} "
                   f"{100 * d15:6.1f}%")
 
