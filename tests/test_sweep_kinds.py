@@ -162,3 +162,22 @@ def test_a_limited_run_evaluates_the_first_pending_designs_and_a_rerun_the_rest(
     assert list(status) == ["ok", "ok", "pending", "pending", "pending"]
     second = run_sweep(s, tmp_path / "s", scheduler="sync", backend=Count())
     assert second.n_run == 3 and second.n_resumed == 2 and second.n_ok == 5
+
+
+def test_a_tilted_cell_through_the_reduced_backend_gives_its_shear_record() -> None:
+    """Every backend turns a tilted cell's response into a record read on the strip shear
+    (the shared record builder; a tilted FE design failed there once, after its FE run)."""
+    from multimorph.io import load_toml
+    from multimorph.sweep import get_backend
+
+    cell = CellGeometry.from_spec(load_toml(
+        __import__("pathlib").Path(__file__).resolve().parents[1] / "examples" / "cell.toml")
+        ["cell"])
+    out = get_backend("rom").evaluate_batch([TiltedCell(cell, math.radians(30))],
+                                            0.4 * cell.mu, ("characteristic", "curves"), {})
+    rec = out[0]
+    assert not isinstance(rec, BaseException), rec
+    shear = np.asarray(rec["shear"])
+    assert shear.shape == np.asarray(rec["pressure"]).shape
+    assert np.all(np.isfinite(shear)) and shear[-1] > 0      # the strip shears with the tilt
+    assert rec["meta"]["model"] == "ritz"

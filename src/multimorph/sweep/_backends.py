@@ -170,16 +170,18 @@ def record_from_response(resp: Any, outputs: Sequence[str]) -> dict[str, Any]:
 
 
 def _tilted_record(resp: Any, shear: np.ndarray, outputs: Sequence[str],
-                   meta: Mapping[str, Any]) -> dict[str, Any]:
+                   meta: Mapping[str, Any], cell: TiltedCell) -> dict[str, Any]:
     """The record of a tilted cell: the straight response's curves plus the strip's shear
-    (in the sense of its tilt), with Pc, Ph and failure read on the shear."""
+    (in the sense of its tilt), with Pc, Ph and failure (at the wall's break stretch) read
+    on the shear."""
     from dataclasses import replace
 
     from multimorph.response import build_response
 
     path = replace(resp.path, twist_rate=np.asarray(shear, float))
     tilted = build_response(path, length=resp.length, shear_modulus=resp.shear_modulus,
-                            backend=resp.backend, break_stretch=resp.break_stretch,
+                            backend=resp.backend,
+                            break_stretch=cell.cell.material.break_stretch,
                             signal="twist_rate", meta=dict(resp.meta))
     rec = record_from_response(tilted, outputs)
     if "curves" in outputs:
@@ -334,7 +336,7 @@ class RomBackend:
         for i, d in enumerate(designs):  # a tilted cell: the straight one's shear rule
             if isinstance(d, TiltedCell) and not isinstance(out[i], BaseException):
                 out[i] = _tilted_record(out[i], tilted_shear(out[i], d.cell, d.tilt),
-                                        outputs, {"model": "ritz"})
+                                        outputs, {"model": "ritz"}, d)
         return out
 
 
@@ -463,7 +465,7 @@ class FeBackend:
                 if isinstance(d, TiltedCell):
                     gamma = np.asarray(res.response.path.extra["shear"], float)
                     out.append(_tilted_record(res.response, -math.copysign(1.0, d.tilt) * gamma,
-                                              outputs, meta))
+                                              outputs, meta, d))
                 else:
                     rec = record_from_response(res.response, outputs)
                     rec["meta"] = meta
@@ -509,7 +511,8 @@ class CalibratedBackend:
                     "calibration_inside": bool(info.get("inside", False)),
                     "outside": info.get("outside", {})}
             if isinstance(d, TiltedCell) and r.backend != "calibrated":
-                recs.append(_tilted_record(r, tilted_shear(r, d.cell, d.tilt), outputs, meta))
+                recs.append(_tilted_record(r, tilted_shear(r, d.cell, d.tilt), outputs, meta,
+                                           d))
                 continue
             rec = record_from_response(r, outputs)
             if isinstance(d, TiltedCell) and "curves" in outputs:
