@@ -87,6 +87,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--limit", type=int, default=None,
                     help="run at most this many pending designs of each set in this pass")
     ap.add_argument("--check", action="store_true")
+    ap.add_argument("--retry-failed", action="store_true",
+                    help="evaluate designs that failed in an earlier run again")
     args = ap.parse_args(argv)
     work = Path(args.work)
     shipped = _shipped()
@@ -120,7 +122,8 @@ def main(argv: list[str] | None = None) -> int:
                 _log("archive rewritten")
 
         summary = run_sweep(reference_spec(name), folder, workers=args.workers,
-                            progress=progress, limit=args.limit)
+                            progress=progress, limit=args.limit,
+                            retry_failed=args.retry_failed)
         _log(f"{name}: {summary.n_ok} ok, {summary.n_failed} failed, {summary.n_invalid} "
              f"invalid of {summary.n_designs}; this run {summary.n_run} in "
              f"{summary.elapsed / 60:.1f} min")
