@@ -61,6 +61,13 @@ def test_a_cell_outside_the_box_is_answered_by_ritz_and_says_which_groups() -> N
     assert r.meta["model"] == "ritz"
     assert r.meta["calibration"]["inside"] is False
     assert "ht/d" in r.meta["calibration"]["outside"]
+    # in a batch with it, a cell inside the box gets the same answer as alone
+    with pytest.warns(CalibrationWarning):
+        both = model.responses([cell, thick], 0.3 * cell.mu)
+    alone = model.response(cell, 0.3 * cell.mu)
+    np.testing.assert_allclose(both[0].path.pressure, alone.path.pressure)
+    np.testing.assert_allclose(both[0].path.curvature, alone.path.curvature)
+    assert both[1].meta["model"] == "ritz"
 
 
 def test_the_cell_command_uses_the_calibrated_model_by_default(tmp_path) -> None:

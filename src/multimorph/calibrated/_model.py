@@ -159,7 +159,14 @@ class CalibratedModel:
         groups = np.array([k.box.values_of(g) for g in gdicts])
         outside = [k.box.outside(g) for g in gdicts]
         inside = np.array([not o for o in outside])
-        kf, p_end = self._features(kind, cells, groups)
+        # Ritz features (a Ritz trace each) only for the cells inside the box: the others
+        # are answered by the fallback and their features would be thrown away
+        kf = np.full((len(cells), len(k.fmean)), np.nan)
+        p_end = np.full(len(cells), np.inf)
+        rows = np.flatnonzero(inside)
+        if rows.size:
+            kf[rows], p_end[rows] = self._features(kind, [cells[i] for i in rows],
+                                                   groups[rows])
         # a cell whose Ritz path does not reach the feature volumes has no inputs: it is
         # answered like a cell outside the box (see responses)
         inside &= np.all(np.isfinite(kf), axis=1)
