@@ -41,7 +41,8 @@ __all__ = ["KIND_SETS", "MODEL_FILE", "TrainingData", "fe_training_data", "fit_a
 MODEL_FILE = DATA_DIR / "model.npz"
 MODEL_MANIFEST = DATA_DIR / "model.json"
 #: The calibration sets of each kind.
-KIND_SETS = {"bending": ("bending",), "stretching": ("stretching",), "twisting": ("twisting",)}
+KIND_SETS = {"bending": ("bending", "bending_narrow"),
+             "stretching": ("stretching", "stretching_narrow"), "twisting": ("twisting",)}
 #: The emulator family of each kind's Ritz features.
 FAMILY = {"bending": "bending", "twisting": "bending", "stretching": "stretching"}
 

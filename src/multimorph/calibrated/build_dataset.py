@@ -30,7 +30,8 @@ from multimorph.calibrated._dataset import (
     write_reference,
 )
 
-ORDER = ("grid24", "yeoh", "stretching", "twisting", "bending")
+ORDER = ("grid24", "yeoh", "bending_narrow", "stretching_narrow", "stretching", "twisting",
+         "bending")
 
 
 def _log(msg: str) -> None:

@@ -33,7 +33,8 @@ from multimorph.calibrated._validate import (
 
 SIGNAL_LABEL = {"bending": "κd (end rotation per cell, rad)", "stretching": "λ − 1",
                 "twisting": "strip shear γ"}
-CHECKS = (("bending", "bending"), ("bending", "grid24"), ("stretching", "stretching"),
+CHECKS = (("bending", "bending"), ("bending", "bending_narrow"), ("bending", "grid24"),
+          ("stretching", "stretching"), ("stretching", "stretching_narrow"),
           ("twisting", "twisting"))
 
 
