@@ -4,17 +4,45 @@ from __future__ import annotations
 
 import sys
 from collections.abc import Sequence
+from typing import Annotated
 
 import typer
 from rich.markup import escape
 
+from multimorph.cli._help import PlainHelpGroup
+
 app = typer.Typer(
+    cls=PlainHelpGroup,
     name="multimorph",
     help="Design sequentially multimodal, single-input soft pneumatic actuators (pneu-nets).",
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
 )
+
+
+def version_line() -> str:
+    """``multimorph <version>``, and the code version (commit) when it says more."""
+    from multimorph import __version__
+    from multimorph._provenance import code_version
+
+    code = code_version()
+    return f"multimorph {__version__}" + (f" (code {code})" if code != __version__ else "")
+
+
+def _show_version(value: bool) -> None:
+    if value:
+        sys.stdout.write(version_line() + "\n")
+        raise typer.Exit(0)
+
+
+@app.callback()
+def _options(
+    version: Annotated[bool, typer.Option(
+        "--version", is_eager=True, callback=_show_version,
+        help="Print the version (and the code's commit in a git checkout) and exit.")] = False,
+) -> None:
+    """Design sequentially multimodal, single-input soft pneumatic actuators (pneu-nets)."""
 
 
 def _register() -> None:

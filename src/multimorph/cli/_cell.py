@@ -15,6 +15,7 @@ from multimorph.cli._common import (
     in_file,
     pressure_option,
 )
+from multimorph.cli._help import PlainHelpCommand
 
 __all__ = ["cell", "cell_summary", "register"]
 
@@ -180,4 +181,4 @@ def cell(
 
 
 def register(app: typer.Typer) -> None:
-    app.command("cell")(cell)
+    app.command("cell", cls=PlainHelpCommand)(cell)

@@ -17,6 +17,7 @@ from typing import Annotated, Any
 import typer
 
 from multimorph.cli._common import console, emit_json, err_console, handle_errors
+from multimorph.cli._help import PlainHelpCommand
 
 __all__ = ["demo", "register"]
 
@@ -184,4 +185,4 @@ def demo(
 
 
 def register(app: typer.Typer) -> None:
-    app.command("demo")(demo)
+    app.command("demo", cls=PlainHelpCommand)(demo)

@@ -15,6 +15,7 @@ from typing import Annotated, Any
 import typer
 
 from multimorph.cli._common import console, emit_json, err_console, handle_errors, in_file
+from multimorph.cli._help import PlainHelpCommand
 
 __all__ = ["EXIT_INFEASIBLE", "design_command", "register"]
 
@@ -28,7 +29,7 @@ MAX_SAMPLES = 100_000
 
 def design_command(
     target: Annotated[Path, typer.Argument(
-        help="Target spec (TOML): \\[[stage]], \\[constraints].")],
+        help="Target spec (TOML): [[stage]], [constraints].")],
     out: Annotated[Path | None, typer.Option(
         "--out", "-o", help="Output folder (default multimorph-out/design-<target name>).")
                    ] = None,
@@ -184,4 +185,4 @@ def _kpa(p: float | None) -> str:
 
 
 def register(app: typer.Typer) -> None:
-    app.command("design")(design_command)
+    app.command("design", cls=PlainHelpCommand)(design_command)

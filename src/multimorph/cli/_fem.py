@@ -11,6 +11,7 @@ from typing import Annotated, Any
 import typer
 
 from multimorph.cli._common import console, emit_json, err_console, handle_errors
+from multimorph.cli._help import PlainHelpCommand
 
 __all__ = ["fem", "register"]
 
@@ -223,4 +224,4 @@ def _density(mesh: str, size: float | None, wall_elements: int | None) -> Any:
 
 
 def register(app: typer.Typer) -> None:
-    app.command("fem")(fem)
+    app.command("fem", cls=PlainHelpCommand)(fem)

@@ -9,10 +9,12 @@ from typing import Annotated, Any
 import typer
 
 from multimorph.cli._common import console, emit_json, handle_errors, warn
+from multimorph.cli._help import PlainHelpCommand, PlainHelpGroup
 
 __all__ = ["material_app", "register"]
 
 material_app = typer.Typer(
+    cls=PlainHelpGroup,
     help="Hyperelastic materials: the built-in library and fits to tensile data.\n\n"
          "Example: multimorph material show dragon-skin-30",
     no_args_is_help=True,
@@ -31,7 +33,7 @@ def _fmt_pct(x: float | None) -> str:
     return "-" if x is None or not math.isfinite(x) else f"{100 * x:.1f} %"
 
 
-@material_app.command("list")
+@material_app.command("list", cls=PlainHelpCommand)
 def material_list(
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON (SI units).")] = False,
 ) -> None:
@@ -74,7 +76,7 @@ def material_list(
                       "Marechal et al. 2021 data, ODbL 1.0.", highlight=False)
 
 
-@material_app.command("show")
+@material_app.command("show", cls=PlainHelpCommand)
 def material_show(
     name: Annotated[str, typer.Argument(help="Library name, e.g. dragon-skin-30 "
                                              "(or dragon-skin-30:yeoh).")],
@@ -123,7 +125,7 @@ def material_show(
         console.print(f"models available: {', '.join(entry['models'])}")
 
 
-@material_app.command("fit")
+@material_app.command("fit", cls=PlainHelpCommand)
 def material_fit(
     file: Annotated[Path, typer.Argument(help="Test data CSV (Marechal format, plain "
                                               "stretch/stress with units, or force-"
@@ -271,7 +273,7 @@ def _check_range(data: Any, law: Any, stretch_max: float, residual: str) -> None
                         "and needs more points")
 
 
-@material_app.command("rebuild-library")
+@material_app.command("rebuild-library", cls=PlainHelpCommand)
 def material_rebuild(
     check: Annotated[bool, typer.Option(
         "--check", help="Do not write; exit 1 if the shipped library differs.")] = False,

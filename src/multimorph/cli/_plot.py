@@ -8,13 +8,15 @@ from typing import Annotated
 import typer
 
 from multimorph.cli._common import console, emit_json, fail, handle_errors
+from multimorph.cli._help import PlainHelpCommand, PlainHelpGroup
 
 __all__ = ["plot_app", "register"]
 
-plot_app = typer.Typer(help="Plots from stored results.", no_args_is_help=True)
+plot_app = typer.Typer(cls=PlainHelpGroup, help="Plots from stored results.",
+                       no_args_is_help=True)
 
 
-@plot_app.command("map")
+@plot_app.command("map", cls=PlainHelpCommand)
 def plot_map(
     results: Annotated[Path, typer.Argument(help="Sweep folder (or its results.zarr).")],
     x: Annotated[str | None, typer.Option(

@@ -10,6 +10,7 @@ import numpy as np
 import typer
 
 from multimorph.cli._common import console, emit_json, handle_errors, in_file, pressure_option
+from multimorph.cli._help import PlainHelpCommand
 
 __all__ = ["register", "simulate"]
 
@@ -167,4 +168,4 @@ def simulate(
 
 
 def register(app: typer.Typer) -> None:
-    app.command("simulate")(simulate)
+    app.command("simulate", cls=PlainHelpCommand)(simulate)

@@ -8,6 +8,7 @@ from typing import Annotated, Any
 import typer
 
 from multimorph.cli._common import console, emit_json, err_console, handle_errors
+from multimorph.cli._help import PlainHelpCommand
 
 __all__ = ["register", "sweep"]
 
@@ -127,4 +128,4 @@ def with_model(spec: Path, model: str) -> Any:
 
 
 def register(app: typer.Typer) -> None:
-    app.command("sweep")(sweep)
+    app.command("sweep", cls=PlainHelpCommand)(sweep)
