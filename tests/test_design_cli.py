@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import tomllib
 from pathlib import Path
 
@@ -103,3 +104,14 @@ def test_verify_fe_missing_is_named(app, tmp_path, monkeypatch):
             "--json")
     assert r.exit_code == 2
     assert "--verify-fe: multimorph.fe lacks simulate_cell" in json.loads(r.stdout)["error"]
+
+
+def test_search_progress_is_printed_as_lines_when_piped(app, tmp_path):
+    # CliRunner's stderr is not a terminal: the bar becomes lines (first and last always)
+    r = run(app, EXAMPLES / "target_gripper.toml", "--out", tmp_path / "p", "--budget", 300,
+            "--population", 8, "--seed", 1, "--robustness", 0, "--no-gradient")
+    assert r.exit_code in (0, 3), r.output
+    lines = [line for line in r.stderr.splitlines() if line.startswith("[design]")]
+    assert re.match(r"\[design\] search: [a-z]+: \d+/300 candidates, \d+\.\d s$", lines[0])
+    done = [int(m) for m in re.findall(r": (\d+)/300 candidates", "\n".join(lines))]
+    assert done == sorted(done) and lines[-1].endswith(" s")

@@ -176,7 +176,7 @@ def _linear_kernel(wall: str, bottom: str, options: Any) -> Any:
     import jax
     import jax.numpy as jnp
 
-    from multimorph.rom import cell_kernel
+    from multimorph.rom import announced, cell_kernel
 
     ck = cell_kernel(wall, bottom, options)
     n = ck.n_free
@@ -187,7 +187,7 @@ def _linear_kernel(wall: str, bottom: str, options: Any) -> Any:
         dq = jnp.linalg.solve(K, b)
         return dq, b @ dq
 
-    return jax.jit(jax.vmap(one))
+    return announced(jax.jit(jax.vmap(one)), f"linear {wall} {bottom} {options!r}")
 
 
 def linear_features(cells: Sequence[CellGeometry | TiltedCell]) -> np.ndarray:

@@ -95,6 +95,28 @@ def fail(message: str, *, as_json: bool = False) -> None:
     raise typer.Exit(EXIT_ERROR)
 
 
+@contextmanager
+def _notices() -> Iterator[None]:
+    """Print the library's notices (logger ``multimorph.compile``: the model is being
+    compiled) on stderr, one line each, while a command runs."""
+    import logging
+
+    class Notice(logging.Handler):
+        def emit(self, record: logging.LogRecord) -> None:
+            err_console.print(record.getMessage(), highlight=False, markup=False,
+                              soft_wrap=True)
+
+    logger = logging.getLogger("multimorph.compile")
+    handler, level = Notice(logging.INFO), logger.level
+    logger.addHandler(handler)
+    logger.setLevel(logging.INFO)
+    try:
+        yield
+    finally:
+        logger.removeHandler(handler)
+        logger.setLevel(level)
+
+
 #: Distinct calibrated-model warnings a command prints before it only counts them.
 MAX_WARNINGS = 3
 
@@ -121,7 +143,7 @@ def handle_errors(as_json: bool = False) -> Iterator[None]:
 
     shown = warnings.showwarning
     try:
-        with warnings.catch_warnings():
+        with warnings.catch_warnings(), _notices():
             from multimorph.calibrated import CalibrationWarning
 
             warnings.simplefilter("always", CalibrationWarning)

@@ -16,6 +16,7 @@ import typer
 
 from multimorph.cli._common import console, emit_json, err_console, handle_errors, in_file
 from multimorph.cli._help import PlainHelpCommand
+from multimorph.cli._progress import progress
 
 __all__ = ["EXIT_INFEASIBLE", "design_command", "register"]
 
@@ -72,8 +73,6 @@ def design_command(
 
     Example: multimorph design examples/target_gripper.toml --seed 1 --out out/gripper
     """
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
-
     from multimorph.design import (
         DesignSettings,
         rom_batch_model,
@@ -106,19 +105,14 @@ def design_command(
         settings = DesignSettings(budget=budget, population=population, seed=seed,
                                   robust_samples=(16 if robust else 0), wall_tolerance=tol,
                                   default_cv=default_cv, gradient=gradient, graded=graded)
-        with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
-                      console=err_console, transient=True, disable=as_json) as bar:
-            task = bar.add_task("designing", total=budget)
-
-            def progress(done: int, total: int, phase: str) -> None:
-                bar.update(task, completed=min(done, total), description=f"search: {phase}")
-
+        with progress("design", unit="candidates", quiet=as_json) as update:
             run = run_design(spec, settings,
                              model=(rom_batch_model(vectorised) if name == "ritz"
                                     else batch_model(name, fallback=False)),
                              robustness_samples=robustness, check_fe=verify_fe,
-                             progress=progress,
-                             stage=lambda text: bar.update(task, description=text))
+                             progress=lambda done, total, phase: update(
+                                 min(done, total), total, phase=f"search: {phase}"),
+                             stage=lambda text: update(None, phase=text))
         if run.simulation_error is not None:
             err_console.print(f"[yellow]warning:[/] {run.simulation_error}")
         result = run.result

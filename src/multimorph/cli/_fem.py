@@ -12,26 +12,18 @@ import typer
 
 from multimorph.cli._common import console, emit_json, err_console, handle_errors
 from multimorph.cli._help import PlainHelpCommand
+from multimorph.cli._progress import progress
 
 __all__ = ["fem", "register"]
 
 
 @contextlib.contextmanager
 def _progress(label: str, p_end: float, quiet: bool) -> Iterator[Callable[[float, int], None]]:
-    """A transient progress bar on stderr (pressure reached, points); yields the callback
-    ``progress(pressure_pa, n_points)`` that the FE drivers call."""
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-
-    with Progress(TextColumn(f"[bold]{label}[/]"), BarColumn(),
-                  TextColumn("{task.fields[p]:.1f} kPa · {task.fields[n]} points"),
-                  TimeElapsedColumn(), console=err_console, transient=True,
-                  disable=quiet) as bar:
-        task = bar.add_task(label, total=p_end, p=0.0, n=0)
-
-        def progress(p: float, n: int) -> None:
-            bar.update(task, completed=min(max(p, 0.0), p_end), p=p / 1e3, n=n)
-
-        yield progress
+    """Progress on stderr (pressure reached, points; a bar on a terminal, else lines);
+    yields the callback ``progress(pressure_pa, n_points)`` that the FE drivers call."""
+    with progress("fem", quiet=quiet) as update:
+        yield lambda p, n: update(min(max(p, 0.0), p_end), p_end, phase=f"inflating {label}",
+                                  detail=f"{p / 1e3:.1f}/{p_end / 1e3:.4g} kPa, {n} points")
 
 
 @contextlib.contextmanager
@@ -133,9 +125,9 @@ def fem(
         checkpoint = PathCheckpoint.beside(folder, spec.read_bytes(), options)
         if restart:
             checkpoint.clear()
-        label = {"cell": "fem", "device": "fem device", "twisting": "fem module"}[job.kind]
-        with _resumable(checkpoint, as_json), _progress(label, job.p_end, as_json) as progress:
-            outcome = run_job(job, progress=progress, checkpoint=checkpoint)
+        label = {"cell": "the cell", "device": "the device", "twisting": "the module"}[job.kind]
+        with _resumable(checkpoint, as_json), _progress(label, job.p_end, as_json) as update:
+            outcome = run_job(job, progress=update, checkpoint=checkpoint)
         with atomic_output_dir(folder) as tmp:
             info = write_outcome(outcome, tmp, vtu=vtu)
         checkpoint.clear()

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -11,6 +12,7 @@ import typer
 
 from multimorph.cli._common import console, emit_json, handle_errors, in_file, pressure_option
 from multimorph.cli._help import PlainHelpCommand
+from multimorph.cli._progress import progress
 
 __all__ = ["register", "simulate"]
 
@@ -45,7 +47,7 @@ def _snapshot_pressures(given: str | None, p_max: float) -> list[float]:
 
 
 def _write(result: object, folder: Path, files: list[str], pressures: list[float],
-           frames: int) -> None:
+           frames: int, update: Callable[..., None]) -> None:
     from multimorph.io import atomic_output_dir, write_json
     from multimorph.viz._device_plots import (
         module_curves_figure,
@@ -64,11 +66,13 @@ def _write(result: object, folder: Path, files: list[str], pressures: list[float
                 for row in zip(s.pressure, s.bend, s.twist, s.stretch, s.measure,
                                strict=True):
                     w.writerow([name, *(f"{x:.8g}" for x in row)])
+        update(0, 2, phase="figures", detail="sequence.png, shapes.png")
         module_curves_figure(result).savefig(tmp / "sequence.png", dpi=130)
         shapes_figure(result, pressures).savefig(tmp / "shapes.png", dpi=110)
         if frames:
-            with console.status("writing animation…", spinner="dots"):
-                write_animation(result, tmp / "morph.gif", frames=frames)
+            write_animation(result, tmp / "morph.gif", frames=frames,
+                            progress=lambda done, total: update(
+                                done, total, phase="animation", detail=f"{done}/{total} frames"))
 
 
 def _model_words(summary: dict[str, Any]) -> str:
@@ -130,11 +134,12 @@ def simulate(
         pressures = _snapshot_pressures(snapshots, p_max)
         folder = out if out is not None else Path("multimorph-out") / f"simulate-{spec.stem}"
         files = list(FILES) + (["morph.gif"] if frames else [])
-        with claim_output(folder, files=files):
-            with console.status("tracing module responses…", spinner="dots"):
-                result = simulate_device(
-                    device, p_max, cell_model=None if model is None else cell_model(name))
-            _write(result, folder, files, pressures, frames)
+        with claim_output(folder, files=files), progress("simulate", quiet=as_json) as update:
+            result = simulate_device(
+                device, p_max, cell_model=None if model is None else cell_model(name),
+                progress=lambda done, total: update(done, total, phase="tracing modules",
+                                                    detail=f"{done}/{total} modules"))
+            _write(result, folder, files, pressures, frames, update)
         summary = {**result.to_dict(), "files": files}
         if as_json:
             emit_json({**summary, "out": str(folder)})

@@ -9,6 +9,7 @@ import typer
 
 from multimorph.cli._common import console, emit_json, err_console, handle_errors
 from multimorph.cli._help import PlainHelpCommand
+from multimorph.cli._progress import progress
 
 __all__ = ["register", "sweep"]
 
@@ -48,16 +49,6 @@ def sweep(
     (the results, with each error, are still written), 2 on a malformed spec or option (also
     when every design is invalid), checked before anything is created.
     """
-    from rich.progress import (
-        BarColumn,
-        MofNCompleteColumn,
-        Progress,
-        TaskID,
-        TextColumn,
-        TimeElapsedColumn,
-        TimeRemainingColumn,
-    )
-
     from multimorph.io import claim_output
     from multimorph.sweep import run_sweep
 
@@ -66,25 +57,14 @@ def sweep(
         target: Any = spec
         if model is not None:
             target = with_model(spec, model)
-        bar = Progress(TextColumn("sweep"), BarColumn(), MofNCompleteColumn(),
-                       TextColumn("designs"), TimeElapsedColumn(), TimeRemainingColumn(),
-                       console=err_console, transient=as_json)
-        tasks: list[TaskID] = []
-
-        def progress(done: int, total: int) -> None:
-            if not tasks:  # the bar appears once every check passed and the work starts
-                bar.start()
-                tasks.append(bar.add_task("sweep", total=None))
-            bar.update(tasks[0], completed=done, total=total)
-
-        with claim_output(folder, in_place=True):
-            try:
-                summary = run_sweep(target, folder, scheduler=scheduler, workers=workers,
-                                    batch_size=batch_size, retries=retries,
-                                    progress=progress, retry_failed=retry_failed,
-                                    allow_plugins=tuple(allow_plugin or ()))
-            finally:
-                bar.stop()
+        with claim_output(folder, in_place=True), progress(
+                "sweep", unit="designs", keep=not as_json) as update:
+            summary = run_sweep(target, folder, scheduler=scheduler, workers=workers,
+                                batch_size=batch_size, retries=retries,
+                                progress=lambda done, total: update(done, total,
+                                                                    phase="evaluating"),
+                                retry_failed=retry_failed,
+                                allow_plugins=tuple(allow_plugin or ()))
         failed_all = summary.n_ok == 0 and summary.n_failed > 0
         if as_json:
             emit_json(summary.to_dict())

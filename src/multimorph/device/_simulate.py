@@ -143,10 +143,13 @@ class DeviceResult:
 
 
 def simulate_device(device: Device, p_max: float | None = None, *,
-                    cell_model: CellModel | None = None) -> DeviceResult:
-    """Trace every module's response to ``p_max`` (default the device's design pressure).
+                    cell_model: CellModel | None = None,
+                    progress: Callable[[int, int], None] | None = None) -> DeviceResult:
+    """Trace every module's response to ``p_max`` (Pa; default the device's design pressure).
 
     Each distinct cell is traced once (modules sharing a cell share the response).
+    ``progress(done, total)`` is called with the number of modules done (before the first
+    and after each).
     """
     p_max = float(device.pmax if p_max is None else p_max)
     model = cell_model or default_cell_model
@@ -154,7 +157,9 @@ def simulate_device(device: Device, p_max: float | None = None, *,
     keys: dict[int, CellGeometry | TiltedCell] = {}
     strains: dict[str, ModuleStrains] = {}
     tilted = bool(getattr(model, "tilted", False))
-    for module in device.modules:
+    if progress is not None:
+        progress(0, len(device.modules))
+    for done, module in enumerate(device.modules, start=1):
         cell: CellGeometry | TiltedCell = module.cell
         if tilted and module.kind == "twisting":
             cell = TiltedCell(module.cell, module.tilt)  # the model answers the tilted cell
@@ -164,6 +169,8 @@ def simulate_device(device: Device, p_max: float | None = None, *,
             keys[key] = cell
             cache[key] = model(cell, p_max)
         strains[module.name] = module_strains(module, cache[key])
+        if progress is not None:
+            progress(done, len(device.modules))
     curves = [
         ModuleCurve(name=n, mode=strain.module.mode, pressure=strain.pressure,
                     measure=strain.measure,

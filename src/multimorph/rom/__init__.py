@@ -22,6 +22,7 @@ from multimorph.rom._continuation import (
     trace_path,
 )
 from multimorph.rom._model import DEFAULT_SETTINGS, cell_theta, solve_cell
+from multimorph.rom._notice import announced
 from multimorph.rom._sensitivity import (
     LENGTHS,
     PathSensitivity,
@@ -43,6 +44,7 @@ __all__ = [
     "ResponseBatch",
     "RomOptions",
     "TracerSettings",
+    "announced",
     "cell_kernel",
     "cell_theta",
     "characteristic_sensitivity",

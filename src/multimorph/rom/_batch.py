@@ -37,6 +37,7 @@ from multimorph.rom._model import (
     options_for,
     padded_measures,
 )
+from multimorph.rom._notice import announced
 
 __all__ = ["CellBatch", "ResponseBatch", "simulate_cells", "solve_batch"]
 
@@ -217,7 +218,9 @@ def _batched(wall_law: str, bottom_law: str, options: RomOptions,
     ck = cell_kernel(wall_law, bottom_law, options)
     kernel = make_tracer(ck.energy, ck.n_free, free_settings(settings, options),
                          ck.admissible, ck.derivatives)
-    return jax.jit(jax.vmap(kernel, in_axes=(None, 0, 0))), ck.n_free
+    return announced(jax.jit(jax.vmap(kernel, in_axes=(None, 0, 0))),
+                     f"vmapped tracer {wall_law} {bottom_law} {options!r} {settings!r}"
+                     ), ck.n_free
 
 
 @lru_cache(maxsize=16)

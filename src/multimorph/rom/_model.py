@@ -25,6 +25,7 @@ from multimorph.rom._continuation import (
     make_tracer,
     raw_path_from_arrays,
 )
+from multimorph.rom._notice import announced
 
 __all__ = ["DEFAULT_SETTINGS", "cell_theta", "cell_tracer", "material_theta", "options_for",
            "solve_cell"]
@@ -80,8 +81,10 @@ def free_settings(settings: TracerSettings, options: RomOptions) -> TracerSettin
 def cell_tracer(wall_law: str, bottom_law: str, options: RomOptions,
              settings: TracerSettings) -> tuple[Any, Any, Any]:
     ck = cell_kernel(wall_law, bottom_law, options)
-    tracer = jax.jit(make_tracer(ck.energy, ck.n_free, free_settings(settings, options),
-                                 ck.admissible, ck.derivatives))
+    tracer = announced(jax.jit(make_tracer(ck.energy, ck.n_free,
+                                           free_settings(settings, options),
+                                           ck.admissible, ck.derivatives)),
+                       f"tracer {wall_law} {bottom_law} {options!r} {settings!r}")
     measures = jax.jit(jax.vmap(ck.measures, in_axes=(0, 0, None)))
     return ck, tracer, measures
 

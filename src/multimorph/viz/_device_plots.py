@@ -11,7 +11,7 @@ Matplotlib through :class:`~matplotlib.figure.Figure` (no pyplot state).
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -97,8 +97,9 @@ def shapes_figure(result: Any, pressures: Sequence[float]) -> Any:
 
 
 def write_animation(result: Any, path: str | os.PathLike[str], *, frames: int = 30,
-                    fps: int = 8) -> None:
-    """Write a GIF of the device morphing from 0 to its maximum pressure."""
+                    fps: int = 8, progress: Callable[[int, int], None] | None = None) -> None:
+    """Write a GIF of the device morphing from 0 to its maximum pressure;
+    ``progress(done, total)`` after each frame drawn."""
     from matplotlib.animation import FuncAnimation, PillowWriter
 
     pressures = np.linspace(0.0, result.pmax, frames)
@@ -117,4 +118,6 @@ def write_animation(result: Any, path: str | os.PathLike[str], *, frames: int = 
         return []
 
     anim = FuncAnimation(fig, draw, frames=frames, blit=False)
-    anim.save(str(path), writer=PillowWriter(fps=fps))
+    anim.save(str(path), writer=PillowWriter(fps=fps),
+              progress_callback=(None if progress is None
+                                 else lambda i, n: progress(i + 1, n)))
