@@ -9,6 +9,7 @@ from typing import Annotated, Any
 
 import numpy as np
 import typer
+from rich.markup import escape
 
 from multimorph.cli._common import console, emit_json, handle_errors, in_file, pressure_option
 from multimorph.cli._help import PlainHelpCommand
@@ -169,6 +170,8 @@ def simulate(
                               highlight=False)
         console.print(f"  first to fail: {seq.first_to_fail or 'none within the path'}; "
                       f"unloading order: {', '.join(seq.unloading_order) or '—'}")
+        for note in summary["notes"]:
+            console.print(f"  [yellow]note:[/] {escape(note)}", highlight=False)
         console.print(f"files in {folder}: {', '.join(summary['files'])}")
 
 

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["RodStrains", "centerline", "chain", "segment_transform"]
+__all__ = ["RodStrains", "centerline", "chain", "frames_along", "segment_transform"]
 
 E2 = np.array([0.0, 1.0, 0.0])
 
@@ -98,13 +98,22 @@ def chain(segments: Sequence[RodStrains], base: np.ndarray | None = None) -> lis
     return frames
 
 
+def frames_along(segments: Sequence[RodStrains], points_per_segment: int = 16,
+                 base: np.ndarray | None = None) -> np.ndarray:
+    """Rod frames (n, 4, 4) along the deformed chain: the start and ``points_per_segment``
+    equal steps of reference length per segment. Columns 0–2 of each rotation are the body
+    axes (e1 across the width, e2 the tangent, e3 up), column 3 the centre-line point (m):
+    what a drawing needs to sweep a cross-section so that bend and twist show."""
+    T = np.eye(4) if base is None else np.asarray(base, float)
+    frames = [T.copy()]
+    for seg in segments:
+        for s in np.linspace(0.0, seg.length, points_per_segment + 1)[1:]:
+            frames.append(T @ segment_transform(seg, s))
+        T = T @ segment_transform(seg)
+    return np.array(frames)
+
+
 def centerline(segments: Sequence[RodStrains], points_per_segment: int = 16,
                base: np.ndarray | None = None) -> np.ndarray:
     """Points (n, 3) of the deformed centre line (m), for plots and animations."""
-    T = np.eye(4) if base is None else np.asarray(base, float)
-    pts = [T[:3, 3].copy()]
-    for seg in segments:
-        for s in np.linspace(0.0, seg.length, points_per_segment + 1)[1:]:
-            pts.append((T @ segment_transform(seg, s))[:3, 3])
-        T = T @ segment_transform(seg)
-    return np.array(pts)
+    return frames_along(segments, points_per_segment, base)[:, :3, 3]

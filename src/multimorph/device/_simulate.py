@@ -10,7 +10,6 @@ module's cell as a :class:`~multimorph.geometry.TiltedCell` and answers its stri
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -18,9 +17,9 @@ from typing import Any
 import numpy as np
 
 from multimorph.device._device import Device
-from multimorph.device._kinematics import RodStrains, centerline, segment_transform
 from multimorph.device._modules import ModuleStrains, module_strains
 from multimorph.device._sequence import ModuleCurve, SequenceReport, analyse_sequence
+from multimorph.device._shape import DeviceShape, device_shape
 from multimorph.geometry import CellGeometry, TiltedCell
 from multimorph.response import Response
 
@@ -47,19 +46,6 @@ def _model_of(response: Response) -> str:
     return "ritz" if name == "rom" else name
 
 
-def _rot_y(angle: float) -> np.ndarray:
-    cos_a, sin_a = math.cos(angle), math.sin(angle)
-    T = np.eye(4)
-    T[:3, :3] = [[cos_a, 0.0, sin_a], [0.0, 1.0, 0.0], [-sin_a, 0.0, cos_a]]
-    return T
-
-
-def _shift(v: np.ndarray) -> np.ndarray:
-    T = np.eye(4)
-    T[:3, 3] = v
-    return T
-
-
 @dataclass(frozen=True, eq=False)
 class DeviceResult:
     """Everything :func:`simulate_device` predicts for a device (SI units)."""
@@ -79,52 +65,33 @@ class DeviceResult:
         device is at the origin with its axis along +y; a bending module with zero orientation
         bends toward −z.
         """
-        dev = self.device
-        branches = dev.branches()
-        end_frame: dict[str, np.ndarray] = {}
-        lines: dict[str, np.ndarray] = {}
+        return self.bodies(pressure, points_per_cell).lines()
 
-        def seg(mod_name: str) -> RodStrains:
-            state = self.module_state(mod_name, pressure)
-            module = dev.module(mod_name)
-            return RodStrains.bend_twist(module.length, bend=state["bend"], twist=state["twist"],
-                                         stretch=state["stretch"])
+    def bodies(self, pressure: float, points_per_cell: int = 4) -> DeviceShape:
+        """The module copies at ``pressure`` (Pa) as bodies with rod frames, and the hubs
+        (:class:`~multimorph.device.DeviceShape`): what the 3D pictures draw."""
+        states = {name: self.module_state(name, pressure) for name in self.strains}
+        return device_shape(self.device, states, pressure, points_per_cell)
 
-        pending = list(branches)
-        guard = 0
-        while pending:
-            guard += 1
-            if guard > 10_000:  # Device validation rules out cycles
-                raise RuntimeError("branch ordering did not converge")
-            b = pending.pop(0)
-            mods = branches[b]
-            parent = next((module.attach_to for module in mods if module.attach_to), None)
-            if parent is not None and parent not in end_frame:
-                pending.append(b)
-                continue
-            base = np.eye(4) if parent is None else end_frame[parent]
-            count = mods[0].count
-            for j in range(count):
-                T = base @ _rot_y(2.0 * math.pi * j / count)
-                T = T @ _shift(np.array([0.0, 0.0, mods[0].radius]))
-                for module in mods:
-                    T_start = T @ _shift(np.array([0.0, 0.0, 0.0]))
-                    Tm = T_start @ _rot_y(module.orientation)
-                    segment = seg(module.name)
-                    n = max(2, points_per_cell * module.n_cells)
-                    pts = centerline([segment], points_per_segment=n, base=Tm)
-                    key = module.name if module.count == 1 else f"{module.name}#{j}"
-                    lines[key] = pts
-                    T = Tm @ segment_transform(segment) @ _rot_y(-module.orientation)
-                    if j == 0:
-                        end_frame[module.name] = T
-        return lines
+    def notes(self, samples: int = 24) -> list[str]:
+        """What the rod model does not handle along the traced path, each with the lowest
+        pressure it appears at (of ``samples`` pressures up to pmax): a module coiling past
+        360°, parts overlapping. Self-contact is not modelled: the shapes beyond are not
+        physical."""
+        first: dict[str, float] = {}
+        for p in np.linspace(self.pmax / samples, self.pmax, samples):
+            for note in self.bodies(float(p)).notes():
+                key = note.split(" (")[0]
+                first.setdefault(key, float(p))
+        return [f"{key} from {p / 1e3:.3g} kPa; self-contact is not modelled"
+                for key, p in first.items()]
 
     def to_dict(self) -> dict[str, Any]:
         models = sorted({_model_of(s.response) for s in self.strains.values()})
         out: dict[str, Any] = {"device": self.device.name, "pmax": self.pmax,
                                "model": models[0] if len(models) == 1 else models,
-                               "modules": {}, "sequence": self.sequence.to_dict()}
+                               "modules": {}, "sequence": self.sequence.to_dict(),
+                               "notes": self.notes()}
         for name, strain in self.strains.items():
             ch = strain.response.characteristic
             module = strain.module

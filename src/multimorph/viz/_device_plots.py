@@ -2,7 +2,8 @@
 
 - :func:`module_curves_figure`: each module's motion vs pressure (bend/twist angle in
   degrees, stretch in %), Pc and Ph marked, dominance bands shaded (the sequence chart);
-- :func:`shapes_figure`: 3D centre lines of every module at chosen pressures;
+- :func:`shapes_figure`: the device in 3D at chosen pressures, its modules as solid bodies
+  (:mod:`multimorph.viz._bodies`);
 - :func:`write_animation`: a GIF of the morphing as pressure rises.
 
 Matplotlib through :class:`~matplotlib.figure.Figure` (no pyplot state).
@@ -15,6 +16,8 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
+
+from multimorph.viz._bodies import BODY_POINTS_PER_CELL, draw_bodies
 
 __all__ = ["module_curves_figure", "shapes_figure", "write_animation"]
 
@@ -63,36 +66,65 @@ def module_curves_figure(result: Any) -> Any:
     return fig
 
 
-def _draw_shape(ax: Any, lines: dict[str, np.ndarray], colour: dict[str, str]) -> None:
-    for key, pts in lines.items():
-        name = key.split("#")[0]
-        ax.plot(pts[:, 0] * 1e3, pts[:, 1] * 1e3, pts[:, 2] * 1e3, color=colour[name], lw=2.5)
+def _colours(result: Any) -> dict[str, str]:
+    return {name: _COLOURS[i % len(_COLOURS)] for i, name in enumerate(result.strains)}
 
 
-def _limits(result: Any, pressures: Sequence[float]) -> tuple[np.ndarray, float]:
-    pts = np.concatenate([np.concatenate(list(result.shape(p).values()))
-                          for p in pressures]) * 1e3
+def _limits(shapes: Sequence[Any]) -> tuple[np.ndarray, float]:
+    """Centre and half-width (mm) of a cube holding every body of ``shapes``."""
+    pts = np.concatenate([np.concatenate([body.points for body in shape.bodies])
+                          for shape in shapes]) * 1e3
+    reach = max(body.thickness for shape in shapes for body in shape.bodies) * 1e3
     centre = 0.5 * (pts.max(axis=0) + pts.min(axis=0))
-    half = 0.55 * float(np.max(pts.max(axis=0) - pts.min(axis=0))) + 1e-9
+    half = 0.5 * float(np.max(pts.max(axis=0) - pts.min(axis=0))) + 0.6 * reach + 1e-9
     return centre, half
 
 
+def _legend_handles(result: Any, colour: dict[str, str]) -> list[Any]:
+    """One entry per module: its name and kind (× copies)."""
+    from matplotlib.patches import Patch
+
+    handles = []
+    for name, strain in result.strains.items():
+        module = strain.module
+        copies = f" ×{module.count}" if module.count > 1 else ""
+        handles.append(Patch(facecolor=colour[name], label=f"{name} ({module.kind}){copies}"))
+    return handles
+
+
+def _draw_device(ax: Any, result: Any, shape: Any, colour: dict[str, str],
+                 centre: np.ndarray, half: float, *, title: str) -> None:
+    """The bodies of ``shape`` on ``ax``: equal axes in mm, the pressure in the title, a
+    note in red where the rod model stops being physical."""
+    draw_bodies(ax, shape, colour)
+    for k, axis in enumerate("xyz"):
+        getattr(ax, f"set_{axis}lim")(centre[k] - half, centre[k] + half)
+        getattr(ax, f"set_{axis}label")(f"{axis} (mm)", fontsize=7, labelpad=1)
+    ax.set_box_aspect((1.0, 1.0, 1.0), zoom=0.82)  # room for the z label
+    ax.tick_params(labelsize=6, pad=0)
+    ax.set_title(title, fontsize=9)
+    notes = shape.notes()
+    if notes:
+        ax.text2D(0.0, 0.0, "\n".join(["note: self-contact is not modelled", *notes]),
+                  transform=ax.transAxes, fontsize=6, color="tab:red", va="bottom",
+                  bbox={"facecolor": "white", "alpha": 0.85, "edgecolor": "none"})
+
+
 def shapes_figure(result: Any, pressures: Sequence[float]) -> Any:
-    """3D snapshots (mm) of the device's centre lines at ``pressures`` (Pa)."""
+    """3D snapshots (mm) of the device's bodies at ``pressures`` (Pa): every module its
+    cell's cross-section swept along the rod (partitions darker, a stripe on the top face
+    that shows twist), hubs grey, one legend entry per module."""
     n = len(pressures)
-    fig = _figure(figsize=(3.6 * n, 3.8), layout="constrained")
-    colour = {name: _COLOURS[i % len(_COLOURS)] for i, name in enumerate(result.strains)}
-    centre, half = _limits(result, pressures)
-    for i, p in enumerate(pressures):
+    fig = _figure(figsize=(3.8 * n, 4.4), layout="constrained")
+    colour = _colours(result)
+    shapes = [result.bodies(p, BODY_POINTS_PER_CELL) for p in pressures]
+    centre, half = _limits(shapes)
+    for i, (p, shape) in enumerate(zip(pressures, shapes, strict=True)):
         ax = fig.add_subplot(1, n, i + 1, projection="3d")
-        _draw_shape(ax, result.shape(p), colour)
-        for k, axis in enumerate("xyz"):
-            getattr(ax, f"set_{axis}lim")(centre[k] - half, centre[k] + half)
-        ax.set_title(f"P = {p / 1e3:.3g} kPa", fontsize=9)
-        ax.set_xlabel("x (mm)", fontsize=7)
-        ax.set_ylabel("y (mm)", fontsize=7)
-        ax.set_zlabel("z (mm)", fontsize=7)
-        ax.tick_params(labelsize=6)
+        _draw_device(ax, result, shape, colour, centre, half, title=f"P = {p / 1e3:.3g} kPa")
+    fig.legend(handles=_legend_handles(result, colour), loc="outside lower center",
+               ncols=min(len(colour), 4), fontsize=8, title=result.device.name,
+               title_fontsize=9)
     return fig
 
 
@@ -103,18 +135,18 @@ def write_animation(result: Any, path: str | os.PathLike[str], *, frames: int = 
     from matplotlib.animation import FuncAnimation, PillowWriter
 
     pressures = np.linspace(0.0, result.pmax, frames)
-    colour = {name: _COLOURS[i % len(_COLOURS)] for i, name in enumerate(result.strains)}
-    centre, half = _limits(result, [0.0, result.pmax * 0.5, result.pmax])
-    fig = _figure(figsize=(4.5, 4.5))
+    colour = _colours(result)
+    centre, half = _limits([result.bodies(float(p)) for p in pressures])
+    fig = _figure(figsize=(5.0, 5.4), layout="constrained")
     ax = fig.add_subplot(1, 1, 1, projection="3d")
+    fig.legend(handles=_legend_handles(result, colour), loc="outside lower center",
+               ncols=min(len(colour), 3), fontsize=7)
 
     def draw(i: int) -> list[Any]:
         ax.cla()
-        _draw_shape(ax, result.shape(float(pressures[i])), colour)
-        for k, axis in enumerate("xyz"):
-            getattr(ax, f"set_{axis}lim")(centre[k] - half, centre[k] + half)
-        ax.set_title(f"{result.device.name}\nP = {pressures[i] / 1e3:.3g} kPa", fontsize=9)
-        ax.tick_params(labelsize=6)
+        p = float(pressures[i])
+        _draw_device(ax, result, result.bodies(p, BODY_POINTS_PER_CELL), colour, centre, half,
+                     title=f"{result.device.name}\nP = {p / 1e3:.3g} kPa")
         return []
 
     anim = FuncAnimation(fig, draw, frames=frames, blit=False)
