@@ -108,6 +108,40 @@ def test_cli_fem_writes_outputs(tmp_path: Path) -> None:
     assert bad.exit_code == 2 and not (tmp_path / "bad").exists()
 
 
+def test_cli_fem_compare_writes_the_comparison_figure(tmp_path: Path,
+                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    """``--compare``: comparison.json and comparison.png (the Ritz model against FE; a
+    stand-in Ritz response keeps the test to the FE run and the files)."""
+    from typer.testing import CliRunner
+
+    import multimorph.rom
+    from multimorph.cli._app import _register, app
+    from multimorph.response import EquilibriumPath, build_response
+
+    def ritz(cell, p_max):  # κ rising steepest at 10 kPa, as the Ritz model labels it
+        P = np.linspace(0.0, p_max, 61)
+        z = np.zeros_like(P)
+        path = EquilibriumPath(P, 20.0 * (1 + np.tanh((P - 10e3) / 2e3)), z, z + 1, 1 + P,
+                               z + 1, np.ones_like(P, bool))
+        return build_response(path, length=cell.length, shear_modulus=cell.mu,
+                              backend="rom", meta={"model": "cell-ritz"})
+
+    monkeypatch.setattr(multimorph.rom, "simulate_cell", ritz)
+    _register()
+    spec = tmp_path / "cell.toml"
+    spec.write_text(_CELL_SPEC)
+    out = tmp_path / "out"
+    res = CliRunner().invoke(app, ["fem", str(spec), "--element-size", "2 mm", "--pmax",
+                                   "15 kPa", "--out", str(out), "--compare", "--no-vtu",
+                                   "--json"])
+    assert res.exit_code == 0, res.output
+    info = json.loads(res.output)
+    assert {"comparison.json", "comparison.png"} <= set(info["files"])
+    assert (out / "comparison.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert info["comparison"]["meta"]["model"] == "ritz"
+    assert info["comparison"]["critical_pressure"]["rom"] == pytest.approx(10e3, rel=0.05)
+
+
 def test_chord_steps_trace_the_same_equilibria_with_fewer_factorisations() -> None:
     """Chord steps (and the converged cycle's tangent as the next predictor's) change which
     matrices are factorised, not what counts as converged: every point of the path is an

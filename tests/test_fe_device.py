@@ -190,17 +190,25 @@ def test_flipped_modules_bend_in_opposite_senses() -> None:
         assert cmp[name]["ph_rom"] is None and cmp[name]["ph_rel"] is None
         expect = None if pc_fe is None else (0.5 * top - pc_fe) / pc_fe
         assert cmp[name]["pc_rel"] == expect
+        # the stand-in is FE's own response: both curves of comparison.png are the same
+        curves = cmp[name]["curves"]
+        assert curves["quantity"] == "bend_angle_deg"
+        assert curves["pressure_pa_rom"] == curves["pressure_pa_fe"]
+        np.testing.assert_allclose(curves["rom"], curves["fe"], rtol=1e-12, atol=1e-12)
 
 
 class _FakeRom:
-    """A reduced-model stand-in: every module's Pc at ``pc``, no Ph (structure test only)."""
+    """A reduced-model stand-in: every module's FE response with its Pc at ``pc``, no Ph
+    (structure test only)."""
 
     def __init__(self, fe: FEDeviceResult, pc: float) -> None:
         from dataclasses import replace
-        from types import SimpleNamespace
 
+        from multimorph.device import module_strains
+
+        modules = {module.name: module for module in fe.mesh.modules}
         self.strains = {
-            name: SimpleNamespace(response=replace(
+            name: module_strains(modules[name], replace(
                 r, characteristic=replace(r.characteristic, critical=pc, hardening=None)))
             for name, r in fe.responses.items()}
 

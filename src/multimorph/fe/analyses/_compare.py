@@ -23,7 +23,7 @@ from multimorph.response import Response
 
 __all__ = ["Comparison", "RomComparison", "ShearComparison", "compare_cell",
            "compare_cell_run", "compare_device", "compare_responses", "compare_shear",
-           "compare_shear_responses", "compare_twisting"]
+           "compare_shear_responses", "compare_twisting", "model_label"]
 
 
 def _rel(a: float | None, b: float | None) -> float | None:
@@ -87,6 +87,40 @@ class Comparison:
         }
 
 
+def model_label(response: Response) -> str:
+    """Which cell model made a (non-FE) response: ``"calibrated"``, ``"ritz"`` or its own
+    name."""
+    name = str(response.meta.get("model", response.backend))
+    return "ritz" if name in ("rom", "ritz", "cell-ritz") else name
+
+
+def _thin(values: np.ndarray, most: int = 80) -> list[float]:
+    """At most ``most`` evenly spread values of a curve (both ends kept), for JSON."""
+    values = np.asarray(values, float)
+    if len(values) <= most:
+        return values.tolist()
+    return values[np.unique(np.linspace(0, len(values) - 1, most).round().astype(int))
+                  ].tolist()
+
+
+def _module_curves(module: Module, fe: Response, rom: Any) -> dict[str, Any]:
+    """A device module's motion against pressure on both observed loading curves, in the
+    quantity of its kind: bend angle (deg; toward its stiff layer in both), axial stretch,
+    or the twist angle's magnitude (deg; the two senses are not the same convention)."""
+    load = fe.loading
+    if module.kind == "bending":
+        quantity, fe_y, rom_y = ("bend_angle_deg", np.degrees(load.extra["bend_angle"]),
+                                 np.degrees(rom.measure))
+    elif module.kind == "stretching":
+        quantity, fe_y, rom_y = "axial_stretch", load.axial_stretch, rom.stretch
+    else:
+        quantity, fe_y, rom_y = ("twist_angle_abs_deg",
+                                 np.abs(np.degrees(load.extra["twist_angle"])),
+                                 np.abs(np.degrees(rom.measure)))
+    return {"quantity": quantity, "pressure_pa_fe": _thin(load.pressure),
+            "fe": _thin(fe_y), "pressure_pa_rom": _thin(rom.pressure), "rom": _thin(rom_y)}
+
+
 def _rom_cell_model() -> Any:
     """:func:`multimorph.rom.simulate_cell`, or an error that says the ROM is missing."""
     try:
@@ -134,7 +168,8 @@ def compare_cell(geometry: CellGeometry, p_max: float, fe_settings: Any = None,
     fe = simulate_cell(geometry, replace(settings, p_max=p_max), n_cells=n_cells)
     t_fe = time.perf_counter() - t
     c = compare_responses(rom, fe.response)
-    return Comparison(**{**c.__dict__, "meta": {"rom_time": t_rom, "fe_time": t_fe,
+    return Comparison(**{**c.__dict__, "meta": {"model": model_label(rom),
+                                                  "rom_time": t_rom, "fe_time": t_fe,
                                                   "fe_dof": fe.stats["nfree"],
                                                   "fe_status": fe.stats["stop_reason"]
                                                   or fe.stats["status"]}})
@@ -235,8 +270,11 @@ def compare_cell_run(rom: Response, fe: FEResult) -> Comparison | ShearCompariso
     reduced-model response."""
     tilt = fe.mesh.tilt
     if tilt:
-        return compare_shear_responses(rom, fe.response, fe.mesh.geometry, tilt)
-    return compare_responses(rom, fe.response)
+        c: Comparison | ShearComparison = compare_shear_responses(rom, fe.response,
+                                                                  fe.mesh.geometry, tilt)
+    else:
+        c = compare_responses(rom, fe.response)
+    return replace(c, meta={**c.meta, "model": model_label(rom)})
 
 
 def compare_shear(geometry: CellGeometry, tilt: float, p_max: float, fe_settings: Any = None,
@@ -267,7 +305,8 @@ def compare_shear(geometry: CellGeometry, tilt: float, p_max: float, fe_settings
     rom = rom_simulate(geometry, p_max)
     t_rom = time.perf_counter() - t
     c = compare_shear_responses(rom, fe.response, geometry, tilt)
-    return replace(c, meta={"rom_time": t_rom, "fe_time": t_fe, "fe_dof": fe.stats["nfree"],
+    return replace(c, meta={"model": model_label(rom), "rom_time": t_rom, "fe_time": t_fe,
+                            "fe_dof": fe.stats["nfree"],
                             "n_cells": n_cells,
                             "fe_status": fe.stats["stop_reason"] or fe.stats["status"]})
 
@@ -300,7 +339,11 @@ def compare_device(fe: FEDeviceResult, rom: Any = None, *, rom_p_max: float | No
     -------
     dict
         Per module: ``pc_fe``, ``pc_rom``, ``pc_rel``, ``ph_fe``, ``ph_rom``, ``ph_rel``
-        (Pa, relative or None), the ``signal`` read and ``rom_p_max``.
+        (Pa, relative or None), the ``signal`` read, ``rom_p_max``, the reduced ``model``
+        (calibrated or ritz) and ``curves``: the module's motion against pressure from
+        both (``quantity``: ``bend_angle_deg``, ``axial_stretch`` or
+        ``twist_angle_abs_deg``; ``pressure_pa_fe``, ``fe``, ``pressure_pa_rom``, ``rom``;
+        at most 80 points each).
     """
     p_rom = float(rom_p_max if rom_p_max is not None else 2.0 * fe.stats["p_max"])
     if rom is None:
@@ -315,7 +358,9 @@ def compare_device(fe: FEDeviceResult, rom: Any = None, *, rom_p_max: float | No
         out[module.name] = {"kind": module.kind, "signal": reduced.characteristic.signal,
                             "rom_p_max": p_rom, "pc_fe": pc_f, "pc_rom": pc_r,
                             "pc_rel": _rel(pc_r, pc_f), "ph_fe": ph_f, "ph_rom": ph_r,
-                            "ph_rel": _rel(ph_r, ph_f)}
+                            "ph_rel": _rel(ph_r, ph_f), "model": model_label(reduced),
+                            "curves": _module_curves(module, fe.responses[module.name],
+                                                     rom.strains[src])}
     return out
 
 
@@ -353,7 +398,8 @@ def compare_twisting(result: FETwistResult, module: Module | None = None, *,
         ``pressure_pa``, ``twist_deg_fe``, ``twist_deg_rom``, ``twist_rel``,
         ``stretch_fe``, ``stretch_rom``, ``stretch_rel`` (lists; ``stretch_rel`` compares
         the elongations λ − 1), ``pc_fe``, ``pc_rom``,
-        ``pc_rel``, ``ph_fe``, ``ph_rom``, ``ph_rel`` (Pa, relative or None), ``rom_p_max``.
+        ``pc_rel``, ``ph_fe``, ``ph_rom``, ``ph_rel`` (Pa, relative or None), ``rom_p_max``,
+        the reduced ``model`` (ritz).
     """
     mod = module or result.module
     p_rom = float(rom_p_max if rom_p_max is not None else 2.0 * np.max(result.pressure))
@@ -384,4 +430,5 @@ def compare_twisting(result: FETwistResult, module: Module | None = None, *,
             "stretch_rel": rel(rom_stretch - 1.0, fe_stretch - 1.0),
             "pc_fe": pc_f, "pc_rom": pc_r, "pc_rel": _rel(pc_r, pc_f),
             "ph_fe": ph_f, "ph_rom": ph_r, "ph_rel": _rel(ph_r, ph_f),
-            "signal_fe": "twist_rate", "signal_rom": rom.characteristic.signal}
+            "signal_fe": "twist_rate", "signal_rom": rom.characteristic.signal,
+            "model": model_label(rom)}

@@ -10,8 +10,14 @@ from multimorph.fe.report._cad import (
     export_cell_solid,
     write_surface_stl,
 )
+from multimorph.fe.report._comparison import (
+    ComparisonCurve,
+    comparison_curves,
+    plot_comparison,
+)
 from multimorph.fe.report._files import (
     summary,
+    write_comparison_figure,
     write_device_csv,
     write_device_outputs,
     write_device_solid,
@@ -36,10 +42,13 @@ from multimorph.fe.report._plots import (
 from multimorph.fe.report._text import describe
 
 __all__ = [
+    "ComparisonCurve",
+    "comparison_curves",
     "describe",
     "export_box_pieces",
     "export_box_solid",
     "export_cell_solid",
+    "plot_comparison",
     "plot_curves",
     "plot_device",
     "plot_hex_snapshots",
@@ -47,6 +56,7 @@ __all__ = [
     "plot_snapshots",
     "plot_twist",
     "summary",
+    "write_comparison_figure",
     "write_device_csv",
     "write_device_outputs",
     "write_device_solid",

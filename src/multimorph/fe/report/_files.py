@@ -27,11 +27,12 @@ from multimorph.fe.analyses import (
 )
 from multimorph.fe.mesh import device_pieces, hex_boundary
 from multimorph.fe.report._cad import export_box_pieces, export_cell_solid, write_surface_stl
+from multimorph.fe.report._comparison import comparison_curves, plot_comparison
 from multimorph.fe.report._plots import plot_curves, plot_device, plot_snapshots, plot_twist
 from multimorph.io import write_json
 
-__all__ = ["TWISTING_CAD_NOTE", "summary", "write_device_csv", "write_device_outputs",
-           "write_device_solid", "write_device_vtu",
+__all__ = ["TWISTING_CAD_NOTE", "summary", "write_comparison_figure", "write_device_csv",
+           "write_device_outputs", "write_device_solid", "write_device_vtu",
            "write_fe_outputs", "write_hex_series", "write_outcome", "write_path_csv",
            "write_twist_csv", "write_twist_outputs", "write_twist_vtu", "write_vtu_series"]
 
@@ -108,8 +109,9 @@ def write_hex_series(folder: Path, stem: str, points: np.ndarray, cells: np.ndar
                      displacements: Sequence[np.ndarray], stretch: Sequence[np.ndarray],
                      pressure: Sequence[float], tags: Mapping[str, np.ndarray]) -> list[str]:
     """One VTU per path point (the deformed hexahedral mesh with its displacement, max
-    principal stretch and integer cell ``tags``) and a ``.pvd`` collection indexed by
-    pressure (kPa) that ParaView opens as a time series; returns the file names."""
+    principal stretch and integer cell ``tags``) and a ``.pvd`` collection that ParaView
+    opens as a time series whose time is the pressure in kPa (``timestep``; the point's
+    number and pressure in ``name``); returns the file names."""
     meshio = require("meshio")
     folder = Path(folder)
     tags = {k: np.asarray(v).astype(np.int32) for k, v in tags.items()}
@@ -123,8 +125,10 @@ def write_hex_series(folder: Path, stem: str, points: np.ndarray, cells: np.ndar
                     cell_data={"max_principal_stretch": [lam],
                                **{k: [v] for k, v in tags.items()}},
                     ).write(folder / name, binary=True)
-        lines.append(f'    <DataSet timestep="{i}" group="" part="0" file="{name}"'
-                     f' name="P={float(pressure[i]) / 1e3:.4g}kPa"/>')
+        # ParaView's time is the pressure (kPa); the name keeps the path point's number
+        lines.append(f'    <DataSet timestep="{float(pressure[i]) / 1e3:.9g}" group="" '
+                     f'part="0" file="{name}" name="{i:04d} P={float(pressure[i]) / 1e3:.4g}kPa"'
+                     f'/>')
         files.append(name)
     lines += ["  </Collection>", "</VTKFile>"]
     (folder / f"{stem}.pvd").write_text("\n".join(lines) + "\n")
@@ -310,5 +314,22 @@ def write_outcome(outcome: FEOutcome, folder: Path, *, vtu: bool = True) -> dict
         if comparison is not None:
             info["comparison"] = comparison
         files = write_twist_outputs(result, folder, vtu=vtu, comparison=comparison)
+    if comparison is not None:
+        write_comparison_figure(outcome, folder / "comparison.png")
+        files.append("comparison.png")
     info["files"] = files
     return info
+
+
+def write_comparison_figure(outcome: FEOutcome, path: Path) -> None:
+    """``comparison.png`` of a run with a comparison: the reduced model's curve against
+    FE's (per module for a device), Pc and Ph of both marked
+    (:func:`~multimorph.fe.report.plot_comparison`)."""
+    job = outcome.job
+    what = {"cell": "cell" if job.n_cells == 1 else f"module of {job.n_cells} cells",
+            "device": f"device {job.device.name if job.device else ''}",
+            "twisting": f"twisting module {job.module.name if job.module else ''}"}[job.kind]
+    if job.tilt:
+        what = f"strip of {job.n_cells} cells tilted {math.degrees(job.tilt):.3g}°"
+    plot_comparison(comparison_curves(outcome.comparison), path,
+                    title=f"{what}: reduced model vs 3D FE")
