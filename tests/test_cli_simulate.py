@@ -34,7 +34,7 @@ def test_simulate_writes_files_and_json(app, tmp_path):
     assert d["modules"]["base"]["critical_pressure"] == pytest.approx(15e3)
     assert d["notes"] == []  # neither coils nor overlaps (tests/test_device_pictures.py)
     assert {p.name for p in out.iterdir()} == {"summary.json", "curves.csv", "sequence.png",
-                                              "shapes.png", "morph.gif"}
+                                              "shapes.png", "morph.gif", "report.html"}
 
 
 @pytest.mark.parametrize(("edit", "message"), [

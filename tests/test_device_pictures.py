@@ -29,7 +29,8 @@ def straight():
 
 def test_bodies_at_zero_pressure_are_the_cells_outer_boxes(straight) -> None:
     # SPEC: 2 × 4 cells of d = 5 mm, w = 10 mm, h = 8 mm, straight along +y
-    polygons, colours = body_polygons(straight.bodies(0.0), {"base": "C0", "tip": "C1"})
+    polygons, colours, owners = body_polygons(straight.bodies(0.0), {"base": "C0", "tip": "C1"})
+    assert set(owners) == {"base", "tip"} and len(owners) == len(polygons)
     pts = np.concatenate(polygons)
     np.testing.assert_allclose(pts.min(axis=0), [-5.0, 0.0, -4.0], atol=1e-9)
     np.testing.assert_allclose(pts.max(axis=0), [5.0, 40.0, 4.0], atol=1e-9)

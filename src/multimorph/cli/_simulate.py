@@ -18,7 +18,10 @@ from multimorph.cli._progress import progress
 __all__ = ["register", "simulate"]
 
 #: Files written into the output folder (and ``morph.gif`` with ``--frames`` > 0).
-FILES = ("summary.json", "curves.csv", "sequence.png", "shapes.png")
+FILES = ("summary.json", "curves.csv", "sequence.png", "shapes.png", "report.html")
+#: Pressures of report.html's slider: ``--frames`` of them, at most this many (every one is
+#: stored in the page), 12 without an animation.
+MAX_REPORT_FRAMES = 48
 #: Most GIF frames (each is a full figure held in memory while the GIF is written).
 MAX_FRAMES = 1000
 
@@ -55,6 +58,7 @@ def _write(result: object, folder: Path, files: list[str], pressures: list[float
         shapes_figure,
         write_animation,
     )
+    from multimorph.viz._report import device_report_html
 
     summary = {**result.to_dict(), "files": files}  # type: ignore[attr-defined]
     with atomic_output_dir(folder) as tmp:
@@ -70,6 +74,10 @@ def _write(result: object, folder: Path, files: list[str], pressures: list[float
         update(0, 2, phase="figures", detail="sequence.png, shapes.png")
         module_curves_figure(result).savefig(tmp / "sequence.png", dpi=130)
         shapes_figure(result, pressures).savefig(tmp / "shapes.png", dpi=110)
+        update(1, 2, phase="report", detail="report.html")
+        device_report_html(result, tmp / "report.html", summary=summary,
+                           model_text=_model_words(summary),
+                           frames=min(frames, MAX_REPORT_FRAMES) if frames else 12)
         if frames:
             write_animation(result, tmp / "morph.gif", frames=frames,
                             progress=lambda done, total: update(
@@ -109,7 +117,9 @@ def simulate(
                         "each distinct cell, minutes each). Default: "
                         "multimorph.models.DEFAULT_MODEL.")] = None,
 ) -> None:
-    """Simulate a device: per-module curves, the sequence of modes, shapes and an animation.
+    """Simulate a device: per-module curves, the sequence of modes, shapes, an animation
+    and report.html (one page that opens offline: the device in 3D with a pressure slider,
+    the sequence, the stages, the model).
 
     Example: multimorph simulate examples/gripper.toml --pmax "60 kPa" --out out/gripper
     """

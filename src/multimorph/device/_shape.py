@@ -89,9 +89,16 @@ class DeviceShape:
                   if body.bend_angle > 2.0 * math.pi}
         out = [f"module {name!r} coils past 360° (bend {math.degrees(angle):.0f}°)"
                for name, angle in coiled.items()]
-        out += [f"{a!r} overlaps itself (closer than its thickness)" if a == b else
-                f"{a!r} and {b!r} overlap (closer than their thickness)"
-                for a, b in self.overlaps()]
+        module = {body.key: body.module.name for body in self.bodies}
+        for a, b in self.overlaps():
+            if a == b:
+                text = f"{a!r} overlaps itself (closer than its thickness)"
+            elif module[a] == module[b]:
+                text = f"copies of {module[a]!r} overlap each other (closer than their thickness)"
+            else:
+                text = f"{a!r} and {b!r} overlap (closer than their thickness)"
+            if text not in out:
+                out.append(text)
         return out
 
     def overlaps(self) -> list[tuple[str, str]]:

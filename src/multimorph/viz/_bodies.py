@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["BODY_POINTS_PER_CELL", "body_polygons", "draw_bodies"]
+__all__ = ["BODY_POINTS_PER_CELL", "HUB", "body_polygons", "draw_bodies"]
 
 #: Rod frames per cell in a drawing (the partition band is one of them wide).
 BODY_POINTS_PER_CELL = 8
@@ -74,15 +74,17 @@ def _shade(colour: tuple[float, ...], factor: float) -> tuple[float, ...]:
 
 def body_polygons(shape: Any, colours: Mapping[str, Any], *,
                   points_per_cell: int = BODY_POINTS_PER_CELL
-                  ) -> tuple[list[np.ndarray], list[tuple[float, ...]]]:
-    """Polygons (each (k, 3), mm) and their face colours for a
-    :class:`~multimorph.device.DeviceShape` (drawn with ``points_per_cell`` frames per cell);
-    ``colours`` by module name."""
+                  ) -> tuple[list[np.ndarray], list[tuple[float, ...]], list[str]]:
+    """Polygons (each (k, 3), mm), their face colours and what each belongs to (a module's
+    name, or ``"hub"``) for a :class:`~multimorph.device.DeviceShape` (drawn with
+    ``points_per_cell`` frames per cell); ``colours`` by module name."""
     from matplotlib.colors import to_rgba
 
     polygons: list[np.ndarray] = []
     faces: list[tuple[float, ...]] = []
+    owners: list[str] = []
     for body in shape.bodies:
+        start = len(polygons)
         base = to_rgba(colours[body.module.name])
         n = len(body.frames)
         for outline, stripe, shaft in _sections(body):
@@ -100,7 +102,9 @@ def body_polygons(shape: Any, colours: Mapping[str, Any], *,
             for end in (0, n - 1):
                 polygons.append(X[end])
                 faces.append(colour)
+        owners += [body.module.name] * (len(polygons) - start)
     for hub in shape.hubs:
+        start = len(polygons)
         ring = np.linspace(0.0, 2.0 * math.pi, 25)[:-1]
         outline = hub.radius * np.column_stack([np.cos(ring), np.sin(ring)])
         thickness = 0.15 * hub.radius
@@ -113,7 +117,8 @@ def body_polygons(shape: Any, colours: Mapping[str, Any], *,
             faces.append(HUB)
         polygons += [X[0], X[1]]
         faces += [HUB, HUB]
-    return polygons, faces
+        owners += ["hub"] * (len(polygons) - start)
+    return polygons, faces, owners
 
 
 def draw_bodies(ax: Any, shape: Any, colours: Mapping[str, Any]) -> Any:
@@ -122,7 +127,7 @@ def draw_bodies(ax: Any, shape: Any, colours: Mapping[str, Any]) -> Any:
     from matplotlib.colors import LightSource
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-    polygons, faces = body_polygons(shape, colours)
+    polygons, faces, _ = body_polygons(shape, colours)
     surface = Poly3DCollection(polygons, facecolors=faces, edgecolors=faces, linewidths=0.2,
                                shade=True,
                                lightsource=LightSource(azdeg=225, altdeg=45))

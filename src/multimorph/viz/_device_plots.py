@@ -102,7 +102,7 @@ def _draw_device(ax: Any, result: Any, shape: Any, colour: dict[str, str],
         getattr(ax, f"set_{axis}label")(f"{axis} (mm)", fontsize=7, labelpad=1)
     ax.set_box_aspect((1.0, 1.0, 1.0), zoom=0.82)  # room for the z label
     ax.tick_params(labelsize=6, pad=0)
-    ax.set_title(title, fontsize=9)
+    ax.set_title(title, fontsize=9, y=0.95)  # inside the figure above the zoomed box
     notes = shape.notes()
     if notes:
         ax.text2D(0.0, 0.0, "\n".join(["note: self-contact is not modelled", *notes]),
@@ -115,7 +115,7 @@ def shapes_figure(result: Any, pressures: Sequence[float]) -> Any:
     cell's cross-section swept along the rod (partitions darker, a stripe on the top face
     that shows twist), hubs grey, one legend entry per module."""
     n = len(pressures)
-    fig = _figure(figsize=(3.8 * n, 4.4), layout="constrained")
+    fig = _figure(figsize=(3.8 * n, 4.8), layout="constrained")
     colour = _colours(result)
     shapes = [result.bodies(p, BODY_POINTS_PER_CELL) for p in pressures]
     centre, half = _limits(shapes)
