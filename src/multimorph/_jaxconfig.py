@@ -27,12 +27,24 @@ def _cache_dir() -> Path | None:
 
 
 def enable_x64() -> None:
-    """Switch JAX to float64 and turn on the persistent compilation cache (idempotent)."""
-    os.environ.setdefault("JAX_ENABLE_X64", "1")
+    """Switch JAX to float64 and turn on the persistent compilation cache (idempotent).
+
+    When JAX is not imported yet this only sets its environment variables (JAX reads them
+    on import), so ``import multimorph`` does not pay for importing JAX: the calibrated
+    model and the CLI's own work do not need it, and a first ``multimorph cell`` stays fast.
+    """
+    import sys
+
+    cache = _cache_dir()
+    if "jax" not in sys.modules:
+        os.environ["JAX_ENABLE_X64"] = "1"
+        if cache is not None:
+            os.environ.setdefault("JAX_COMPILATION_CACHE_DIR", str(cache))
+            os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "1.0")
+        return
     import jax
 
     jax.config.update("jax_enable_x64", True)
-    cache = _cache_dir()
     if cache is not None and not jax.config.jax_compilation_cache_dir:
         jax.config.update("jax_compilation_cache_dir", str(cache))
         jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)

@@ -136,7 +136,11 @@ class CalibratedModel:
             ebox = self.emulator_boxes[fam]
             fam_groups = np.array([[cell_groups(c)[n] for n in ebox.names]
                                    for c, e in zip(cells, emulable, strict=True) if e])
-            feats[emulable] = self.emulators[fam].predict(ebox.scaled(fam_groups))
+            pred = self.emulators[fam].predict(ebox.scaled(fam_groups))
+            feats[emulable] = pred[:, :4]
+            if pred.shape[1] > 4:  # the emulated Ritz Pc bounds the data, as the exact one
+                mus = np.array([c.mu for c, e in zip(straight, emulable, strict=True) if e])
+                p_end[emulable] = DATA_PMAX_FACTOR * np.exp(pred[:, 4]) * mus
         if (~emulable).any():
             from multimorph.calibrated._ritz import ritz_features_and_pc
 
@@ -211,7 +215,8 @@ class CalibratedModel:
                 straight = self.responses([cells[i].cell for i in idx],  # type: ignore[union-attr]
                                           p_max, fallback=fallback)
                 for i, r in zip(idx, straight, strict=True):
-                    out[i] = r if isinstance(r, Exception) else _straight_for_tilted(r)
+                    out[i] = (r if isinstance(r, Exception)
+                              else _straight_for_tilted(r, cells[i]))  # type: ignore[arg-type]
                 continue
             if kind not in self.kinds:
                 for i in idx:
@@ -303,12 +308,25 @@ class CalibratedModel:
         return resp.with_meta(**meta)
 
 
-def _straight_for_tilted(r: Response) -> Response:
-    """A straight cell's response standing for its tilted cell (see :meth:`responses`)."""
+def _straight_for_tilted(r: Response, cell: TiltedCell) -> Response:
+    """A straight cell's response standing for its tilted cell (see :meth:`responses`):
+    the same path, read on the strip shear of the Ritz rule γ = ε sin 2|β| (ε the
+    mid-height strain along the chamber), kept as ``extra["shear"]`` as a calibrated
+    tilted cell would give it (the twisting module reads it the same way)."""
+    from dataclasses import replace
+
+    c = cell.cell
+    path = r.path
+    mid = np.asarray(path.axial_stretch) * (1.0 + np.asarray(path.curvature) * 0.5
+                                            * c.height) - 1.0
+    gamma = mid * math.sin(2.0 * abs(cell.tilt))
+    path = replace(path, twist_rate=gamma, extra={**(path.extra or {}), "shear": gamma})
+    resp = build_response(path, length=c.length, shear_modulus=c.mu, backend=r.backend,
+                          break_stretch=c.material.break_stretch, signal="twist_rate")
     cal = dict(r.meta.get("calibration") or {})
     cal["twisting"] = ("no FE calibration of tilted cells yet: the straight cell's response; "
                        "the strip shear follows the Ritz rule γ = ε sin 2β")
-    return r.with_meta(calibration=cal)
+    return resp.with_meta(**{**r.meta, "calibration": cal})
 
 
 def _truncate(path: EquilibriumPath, p_max: float) -> tuple[EquilibriumPath, bool]:

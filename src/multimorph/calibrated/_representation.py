@@ -105,8 +105,8 @@ def path_from_grid(values: np.ndarray, cell: CellGeometry | TiltedCell, *,
     names = QUANTITIES[kind]
     t_end = float(T_GRID[-1] if t_end is None else t_end)
     tt = np.concatenate([[0.0], np.geomspace(T_GRID[0], t_end, points - 1)])
-    vals = {n: PchipInterpolator(np.log(T_GRID), values[:, q])(np.log(tt[1:]))
-            for q, n in enumerate(names)}
+    at = PchipInterpolator(np.log(T_GRID), values[:, :len(names)], axis=0)(np.log(tt[1:]))
+    vals = {n: at[:, q] for q, n in enumerate(names)}
     P = np.concatenate([[0.0], np.exp(vals["log_p"])]) * c.mu
     y = np.concatenate([[0.0], vals["y_t"] * tt[1:]])
     peak = 1.0 + np.concatenate([[0.0], np.exp(vals["log_l"])])

@@ -23,14 +23,15 @@ from multimorph.geometry import CellGeometry, TiltedCell
 __all__ = ["FEATURE_NAMES", "FEATURE_T", "RITZ_PMAX", "ritz_features", "ritz_paths"]
 
 #: Chamber log volume ratios t = log(V/V0) at which the Ritz model is read.
-TABLE_T = (0.05, 0.1, 0.2, 0.3, 0.5, 0.75, 1.0)
+TABLE_T = (0.05, 0.1, 0.2, 0.25, 0.3, 0.5, 0.75, 1.0)
 #: The Ritz features the calibrated model uses (a subset of :func:`path_table` columns).
 FEATURE_T = (0.25, 0.75)
 FEATURE_NAMES = ("log_p_ritz_t025", "log_p_ritz_t075", "signal_per_t_ritz_t025",
                  "mid_strain_per_t_ritz_t025")
-#: Columns of :func:`path_table`: log(P/μ), signal/t and mid-height strain/t at each t.
-TABLE_NAMES = tuple(f"{q}_t{t:g}" for q in ("log_p", "signal_per_t", "mid_strain_per_t")
-                    for t in TABLE_T)
+#: Columns of :func:`path_table`: log(P/μ), signal/t and mid-height strain/t at each t, and
+#: log(Pc/μ) of the Ritz path (NaN where it has no Pc below :data:`RITZ_PMAX` μ).
+TABLE_NAMES = (*(f"{q}_t{t:g}" for q in ("log_p", "signal_per_t", "mid_strain_per_t")
+                  for t in TABLE_T), "log_pc")
 #: Largest pressure of the Ritz traces, in units of the wall μ (every sampled design of the
 #: calibrated box passes t = 1 below it).
 RITZ_PMAX = 4.0
@@ -110,16 +111,32 @@ def path_row(path: Any, cell: CellGeometry | TiltedCell) -> np.ndarray:
     t, P, y, mid = t[keep], P[keep], y[keep], mid[keep]
     tt = np.asarray(TABLE_T)
     inside = tt <= t[-1]
-    out = np.full(3 * len(tt), np.nan)
+    out = np.full(3 * len(tt) + 1, np.nan)
     k = len(tt)
     out[:k][inside] = np.log(np.maximum(np.interp(tt[inside], t, P), 1e-12))
     out[k:2 * k][inside] = np.interp(tt[inside], t, y) / tt[inside]
-    out[2 * k:][inside] = np.interp(tt[inside], t, mid) / tt[inside]
+    out[2 * k:3 * k][inside] = np.interp(tt[inside], t, mid) / tt[inside]
+    pc = ritz_pc(path, cell)
+    out[3 * k] = math.log(pc / c.mu) if math.isfinite(pc) else np.nan
     return out
 
 
+def ritz_pc(path: Any, cell: CellGeometry | TiltedCell) -> float:
+    """The straight cell's critical pressure on a Ritz path (Pa; NaN: none on the path or
+    a path too short to read)."""
+    from multimorph.response import build_response
+
+    c = _straight(cell)
+    try:
+        pc = build_response(path, length=c.length, shear_modulus=c.mu, backend="rom",
+                            signal=c.signal).characteristic.critical
+    except Exception:  # a path too short to read: no Pc
+        return math.nan
+    return math.nan if pc is None else float(pc)
+
+
 def path_table(cells: Sequence[CellGeometry | TiltedCell]) -> np.ndarray:
-    """:data:`TABLE_NAMES` of every cell's Ritz path, shape (n, 21)."""
+    """:data:`TABLE_NAMES` of every cell's Ritz path, shape (n, 25)."""
     paths = ritz_paths(cells)
     return np.array([path_row(p, c) for p, c in zip(paths, cells, strict=True)])
 
@@ -135,7 +152,12 @@ def features_from_table(table: np.ndarray) -> np.ndarray:
 
     return np.column_stack([at(table[:, :k], FEATURE_T[0]), at(table[:, :k], FEATURE_T[1]),
                             at(table[:, k:2 * k], FEATURE_T[0]),
-                            at(table[:, 2 * k:], FEATURE_T[0])])
+                            at(table[:, 2 * k:3 * k], FEATURE_T[0])])
+
+
+def log_pc_from_table(table: np.ndarray) -> np.ndarray:
+    """log(Pc/μ) of the Ritz paths of :func:`path_table` rows (NaN: none)."""
+    return np.atleast_2d(table)[:, 3 * len(TABLE_T)]
 
 
 def ritz_features(cells: Sequence[CellGeometry | TiltedCell]) -> np.ndarray:
@@ -150,20 +172,9 @@ def ritz_features_and_pc(cells: Sequence[CellGeometry | TiltedCell],
     """:func:`ritz_features` and each straight cell's Ritz critical pressure (Pa; NaN when
     its Ritz path has none below :data:`RITZ_PMAX` μ): the FE reference data were traced
     to a multiple of it, so it bounds the pressures the calibrated model has data for."""
-    from multimorph.response import build_response
-
     paths = ritz_paths(cells)
     feats = np.array([path_features(p, c) for p, c in zip(paths, cells, strict=True)])
-    pcs = np.full(len(cells), np.nan)
-    for i, (p, c) in enumerate(zip(paths, cells, strict=True)):
-        straight = _straight(c)
-        try:
-            pc = build_response(p, length=straight.length, shear_modulus=straight.mu,
-                                backend="rom", signal=straight.signal).characteristic.critical
-        except Exception:  # a path too short to read: no bound
-            pc = None
-        if pc is not None:
-            pcs[i] = pc
+    pcs = np.array([ritz_pc(p, c) for p, c in zip(paths, cells, strict=True)])
     return feats, pcs
 
 

@@ -30,7 +30,7 @@ SEED = 7
 
 
 def load_ritz_table(path: Path = RITZ_TABLE) -> dict[str, dict[str, np.ndarray]]:
-    """``{kind: {"groups": (n, k), "table": (n, 21)}}`` of the saved table ({} if none):
+    """``{kind: {"groups": (n, k), "table": (n, 25)}}`` of the saved table ({} if none):
     the groups and the Ritz path's :data:`~._ritz.TABLE_NAMES` of every design."""
     if not path.exists():
         return {}
