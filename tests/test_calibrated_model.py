@@ -119,3 +119,23 @@ def test_the_shipped_ritz_emulator_reproduces_the_ritz_features_it_stands_for() 
     fin = np.isfinite(pcs)
     mus = np.array([c.mu for c in cells])
     assert np.median(np.abs(emu[fin, 4] - np.log(pcs[fin] / mus[fin]))) < 0.08
+
+
+def test_the_fast_variant_reads_emulated_features_and_stays_near_the_exact_model() -> None:
+    """``calibrated-fast`` (emulated Ritz features, no Ritz trace) says which variant made
+    it and lands near the exact-feature model on the example cell (its own held-out error
+    against FE is in docs/validation.md)."""
+    from multimorph.models import cell_model
+
+    model = load_model()
+    if not model.fast_kinds:
+        pytest.skip("the shipped model has no fast variant")
+    cell = CellGeometry.from_spec(load_toml(EXAMPLES / "cell.toml")["cell"])
+    exact = cell_model("calibrated")(cell, 0.9 * cell.mu)
+    fast = cell_model("calibrated-fast")(cell, 0.9 * cell.mu)
+    assert exact.meta["model"] == "calibrated"
+    assert fast.meta["model"] == "calibrated-fast"
+    assert fast.meta["calibration"]["features"] == "emulated"
+    pc, pc_fast = exact.characteristic.critical, fast.characteristic.critical
+    assert pc is not None and pc_fast is not None
+    assert abs(pc_fast / pc - 1.0) < 0.25

@@ -3,6 +3,9 @@
 * ``"calibrated"`` (default): the Ritz model corrected against the project's own 3D FE
   (:mod:`multimorph.calibrated`); outside its calibrated box it answers with the Ritz
   model and says so (``meta["calibration"]["inside"] = False``, a warning).
+* ``"calibrated-fast"``: the same correction read from emulated Ritz features (no Ritz
+  trace: about 40 × faster, less accurate where the emulator is off; docs/validation.md);
+  for searches and sweeps over thousands of designs.
 * ``"ritz"`` (alias ``"rom"``): the reduced (Ritz energy) model of :mod:`multimorph.rom` —
   the physics backbone, about twice as stiff as FE (its Pc ≈ 2 × FE's).
 * ``"fe"``: 3D finite elements (:mod:`multimorph.fe`), one cell at a time with the data
@@ -27,7 +30,7 @@ from multimorph.response import Response
 __all__ = ["DEFAULT_MODEL", "MODEL_ALIASES", "MODEL_NAMES", "batch_model", "cell_model",
            "model_name"]
 
-MODEL_NAMES = ("calibrated", "ritz", "fe")
+MODEL_NAMES = ("calibrated", "calibrated-fast", "ritz", "fe")
 MODEL_ALIASES = {"rom": "ritz"}
 DEFAULT_MODEL = "calibrated"
 CellModel = Callable[[CellGeometry | TiltedCell, float], Response]
@@ -51,6 +54,15 @@ def _calibrated(cell: CellGeometry | TiltedCell, p_max: float) -> Response:
     from multimorph.calibrated import load_model
 
     return load_model().response(cell, p_max)
+
+
+def _calibrated_fast(cell: CellGeometry | TiltedCell, p_max: float) -> Response:
+    from multimorph.calibrated import load_model
+
+    r = load_model().responses([cell], p_max, fast=True)[0]
+    if isinstance(r, Exception):
+        raise r
+    return r
 
 
 def _ritz(cell: CellGeometry | TiltedCell, p_max: float) -> Response:
@@ -80,8 +92,8 @@ def _fe(cell: CellGeometry | TiltedCell, p_max: float, **settings: Any) -> Respo
 def cell_model(name: str | None = None, **fe_settings: Any) -> CellModel:
     """The single-cell model called ``name`` (see the module docstring)."""
     key = model_name(name)
-    if key == "calibrated":
-        fn: Any = _calibrated
+    if key in ("calibrated", "calibrated-fast"):
+        fn: Any = _calibrated if key == "calibrated" else _calibrated_fast
         fn.tilted = True
         return fn
     if key == "ritz":
@@ -103,11 +115,13 @@ def batch_model(name: str | None = None, *, fallback: bool = True,
     the calibrated model holds rather than mixing two models in one objective.
     """
     key = model_name(name)
-    if key == "calibrated":
+    if key in ("calibrated", "calibrated-fast"):
+        fast = key == "calibrated-fast"
+
         def calibrated(cells: Sequence[Any], p_max: float) -> list[Any]:
             from multimorph.calibrated import load_model
 
-            return load_model().responses(list(cells), p_max, fallback=fallback)
+            return load_model().responses(list(cells), p_max, fallback=fallback, fast=fast)
 
         calibrated.batched = True  # type: ignore[attr-defined]
         return calibrated

@@ -216,9 +216,11 @@ def fit_emulator(family: str, table: dict[str, np.ndarray], box: Box,
     return refit_weights(gp_sub, x, f, mask), accuracy
 
 
-def refit_weights(gp: MultiOutputGP, x: np.ndarray, y: np.ndarray, mask: np.ndarray,
-                  ) -> MultiOutputGP:
-    """The same kernel and linear means solved on new data."""
+def refit_weights(gp: MultiOutputGP, x: np.ndarray, y: np.ndarray, mask: np.ndarray, *,
+                  keep_factor: bool = False) -> MultiOutputGP:
+    """The same kernel and linear means solved on new data (without the Cholesky factor
+    of the predictive variance unless ``keep_factor``: an emulator needs its mean only,
+    and the factor of 2,000 designs would be 30 MB in the package)."""
     from scipy.linalg import cho_factor, cho_solve
 
     from multimorph.calibrated._gp import matern52
@@ -232,7 +234,8 @@ def refit_weights(gp: MultiOutputGP, x: np.ndarray, y: np.ndarray, mask: np.ndar
     for j in range(m):
         weights[:, j] = cho_solve(c, np.where(mask[:, j], resid[:, j], 0.0))
     return MultiOutputGP(x=x, length=gp.length, noise=gp.noise, mask=mask, weights=weights,
-                         coef=gp.coef, scale=gp.scale, chol=np.linalg.cholesky(K))
+                         coef=gp.coef, scale=gp.scale,
+                         chol=np.linalg.cholesky(K) if keep_factor else np.zeros((0, 0)))
 
 
 def _emulable(cell: Any) -> bool:
@@ -251,12 +254,42 @@ def emulated_features(emu: MultiOutputGP, box: Box, cells: list[Any],
     return out
 
 
-def fit_and_save(*, emulators: bool = False) -> None:
-    """Fit every kind from the shipped data (and, with ``emulators``, the Ritz-feature
-    emulators from the Ritz table); write model.npz and model.json.
+def _fit_one(kind: str, data: TrainingData, prefix: str, arrays: dict[str, np.ndarray],
+             manifest: dict[str, Any]) -> None:
+    """Fit one kind's GP on ``data`` and store it under ``prefix`` (unless too few designs)."""
+    train = ~data.holdout & np.all(np.isfinite(kind_features(
+        kind, data.features, _tilts(data))), axis=1)
+    n_inputs = len(GROUP_NAMES[kind]) + 3
+    if train.sum() < MIN_DESIGNS_PER_INPUT * n_inputs:
+        _log(f"{kind}: only {int(train.sum())} training designs for {n_inputs} inputs "
+             f"(at least {MIN_DESIGNS_PER_INPUT * n_inputs}); not fitted")
+        return
+    box = Box.from_spec(kind, reference_spec(KIND_SETS[kind][0]))
+    gp, fmean, fstd = fit_kind(data, box)
+    p = f"{prefix}{kind}/"
+    arrays.update(gp.to_arrays(p))
+    arrays[f"{p}feature_mean"] = fmean
+    arrays[f"{p}feature_std"] = fstd
+    arrays[f"{p}box_low"] = box.low
+    arrays[f"{p}box_high"] = box.high
+    manifest[kind] = {
+        "sets": list(KIND_SETS[kind]), "training_designs": int(train.sum()),
+        "held_out": int(data.holdout.sum()), "length_scales": gp.length.round(4).tolist(),
+        "noise": gp.noise, "groups": list(GROUP_NAMES[kind]),
+        "features": "emulated" if prefix else "ritz",
+        "box": {n: [float(lo), float(hi)] for n, lo, hi in
+                zip(box.names, box.low, box.high, strict=True)}}
+    _log(f"{kind}{' (fast)' if prefix else ''}: fitted on {int(train.sum())} designs")
 
-    Without emulators the model computes every cell's Ritz features with the Ritz model at
-    run time (one batched Ritz trace per batch of cells: the cost of the Ritz model itself).
+
+def fit_and_save(*, emulators: bool = False) -> None:
+    """Fit every kind from the shipped data; write model.npz and model.json.
+
+    The model ("calibrated") computes every cell's Ritz features with the Ritz model at run
+    time (one batched Ritz trace per batch of cells: the cost of the Ritz model itself).
+    With ``emulators``, the Ritz-feature emulators are fitted on the Ritz table and every
+    kind is fitted a second time on emulated features: the fast variant
+    ("calibrated-fast": no Ritz trace, less accurate where the emulator is off).
     """
     from multimorph._provenance import code_version
 
@@ -283,42 +316,20 @@ def fit_and_save(*, emulators: bool = False) -> None:
         _log(f"emulator {family}: {len(emu.x)} Ritz designs; test error (median, p90): "
              + ", ".join(f"{k} {v['median']:.3g} {v['p90']:.3g}" for k, v in accuracy.items()
                          if v.get("n")))
+    manifest["fast_kinds"] = {}
     for kind in KIND_SETS:
         if not any(s in sets for s in KIND_SETS[kind]):
             continue
+        data = fe_training_data(kind, sets)
+        variants = [("", data)]
         if FAMILY[kind] in emus:
-            # the GP learns on the features it will be given at run time: the emulator's
-            # (exact Ritz features only for the cells of other laws, which it traces)
-            data = fe_training_data(kind, sets, ritz=False)
-            other = [i for i, c in enumerate(data.cells) if not _emulable(c)]
-            feats = np.array(data.features)
-            if other:
-                feats[other] = ritz_features([data.cells[i] for i in other])
-            data = replace(data, features=emulated_features(*emus[FAMILY[kind]],
-                                                            data.cells, feats))
-        else:
-            data = fe_training_data(kind, sets)
-        train = ~data.holdout & np.all(np.isfinite(kind_features(
-            kind, data.features, _tilts(data))), axis=1)
-        n_inputs = len(GROUP_NAMES[kind]) + 3
-        if train.sum() < MIN_DESIGNS_PER_INPUT * n_inputs:
-            _log(f"{kind}: only {int(train.sum())} training designs for {n_inputs} inputs "
-                 f"(at least {MIN_DESIGNS_PER_INPUT * n_inputs}); not fitted")
-            continue
-        box = Box.from_spec(kind, reference_spec(KIND_SETS[kind][0]))
-        gp, fmean, fstd = fit_kind(data, box)
-        arrays.update(gp.to_arrays(f"{kind}/"))
-        arrays[f"{kind}/feature_mean"] = fmean
-        arrays[f"{kind}/feature_std"] = fstd
-        arrays[f"{kind}/box_low"] = box.low
-        arrays[f"{kind}/box_high"] = box.high
-        manifest["kinds"][kind] = {
-            "sets": list(KIND_SETS[kind]), "training_designs": int(train.sum()),
-            "held_out": int(data.holdout.sum()), "length_scales": gp.length.round(4).tolist(),
-            "noise": gp.noise, "groups": list(GROUP_NAMES[kind]),
-            "box": {n: [float(lo), float(hi)] for n, lo, hi in
-                    zip(box.names, box.low, box.high, strict=True)}}
-        _log(f"{kind}: fitted on {int(train.sum())} designs")
+            # the fast variant learns on the features it will be given at run time: the
+            # emulator's (exact ones only for the cells of other laws, which it traces)
+            variants.append(("fast/", replace(data, features=emulated_features(
+                *emus[FAMILY[kind]], data.cells, data.features))))
+        for prefix, d in variants:
+            _fit_one(kind, d, prefix, arrays,
+                     manifest["fast_kinds" if prefix else "kinds"])
     manifest["fit_time_s"] = round(time.monotonic() - t0, 1)
     tmp = MODEL_FILE.with_name(f".{MODEL_FILE.stem}.tmp.npz")
     np.savez_compressed(tmp, **arrays)

@@ -76,6 +76,8 @@ class MultiOutputGP:
         mean = lin + (ks @ self.weights) * self.scale
         if not std:
             return mean
+        if self.chol.size == 0:
+            raise ValueError("this GP was stored without its variance factor (mean only)")
         from scipy.linalg import solve_triangular
 
         v = solve_triangular(self.chol, ks.T, lower=True)

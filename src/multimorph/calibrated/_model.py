@@ -91,12 +91,16 @@ class CalibratedModel:
             raise MultimorphError("calibrated model: its volume grid is not this code's; refit "
                                   "it (python -m multimorph.calibrated.fit model)")
         self.kinds: dict[str, _Kind] = {}
-        for kind in manifest.get("kinds", {}):
-            box = Box(kind, tuple(manifest["kinds"][kind]["groups"]),
-                      np.asarray(arrays[f"{kind}/box_low"]), np.asarray(arrays[f"{kind}/box_high"]))
-            self.kinds[kind] = _Kind(kind, MultiOutputGP.from_arrays(arrays, f"{kind}/"), box,
-                                     np.asarray(arrays[f"{kind}/feature_mean"]),
-                                     np.asarray(arrays[f"{kind}/feature_std"]))
+        self.fast_kinds: dict[str, _Kind] = {}
+        for key, into, prefix in (("kinds", self.kinds, ""),
+                                  ("fast_kinds", self.fast_kinds, "fast/")):
+            for kind, info in manifest.get(key, {}).items():
+                p = f"{prefix}{kind}/"
+                box = Box(kind, tuple(info["groups"]), np.asarray(arrays[f"{p}box_low"]),
+                          np.asarray(arrays[f"{p}box_high"]))
+                into[kind] = _Kind(kind, MultiOutputGP.from_arrays(arrays, p), box,
+                                   np.asarray(arrays[f"{p}feature_mean"]),
+                                   np.asarray(arrays[f"{p}feature_std"]))
         self.emulators = {fam: MultiOutputGP.from_arrays(arrays, f"emulator/{fam}/")
                           for fam in manifest.get("emulators", {})}
         self.emulator_boxes = {}
@@ -122,7 +126,7 @@ class CalibratedModel:
 
     # ------------------------------------------------------------------ features
     def _features(self, kind: str, cells: Sequence[CellGeometry | TiltedCell],
-                  groups: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                  groups: np.ndarray, fast: bool = False) -> tuple[np.ndarray, np.ndarray]:
         fam = FAMILY[kind]
         straight = [c.cell if isinstance(c, TiltedCell) else c for c in cells]
         emulable = np.array([c.material.model in _EMULATED_LAWS
@@ -130,7 +134,7 @@ class CalibratedModel:
                              and c.bottom_material.model in _EMULATED_LAWS for c in straight])
         feats = np.full((len(cells), 4), np.nan)
         p_end = np.full(len(cells), np.inf)
-        if fam not in self.emulators:
+        if not fast or fam not in self.emulators:
             emulable[:] = False
         if emulable.any():
             ebox = self.emulator_boxes[fam]
@@ -152,13 +156,15 @@ class CalibratedModel:
         return kind_features(kind, feats, tilts), p_end
 
     # ------------------------------------------------------------------ grid
-    def grid(self, cells: Sequence[CellGeometry | TiltedCell]) -> GridPrediction:
-        """Grid predictions for cells of one kind (inside or not: see ``inside``)."""
+    def grid(self, cells: Sequence[CellGeometry | TiltedCell], *,
+             fast: bool = False) -> GridPrediction:
+        """Grid predictions for cells of one kind (inside or not: see ``inside``); ``fast``:
+        the variant on emulated Ritz features (no Ritz trace)."""
         kinds = {kind_of(c) for c in cells}
         if len(kinds) != 1:
             raise MultimorphError("calibrated model: grid() takes cells of one kind")
         kind = kinds.pop()
-        k = self.kinds[kind]
+        k = (self.fast_kinds if fast else self.kinds)[kind]
         gdicts = [cell_groups(c) for c in cells]
         groups = np.array([k.box.values_of(g) for g in gdicts])
         outside = [k.box.outside(g) for g in gdicts]
@@ -170,7 +176,7 @@ class CalibratedModel:
         rows = np.flatnonzero(inside)
         if rows.size:
             kf[rows], p_end[rows] = self._features(kind, [cells[i] for i in rows],
-                                                   groups[rows])
+                                                   groups[rows], fast)
         # a cell whose Ritz path does not reach the feature volumes has no inputs: it is
         # answered like a cell outside the box (see responses)
         inside &= np.all(np.isfinite(kf), axis=1)
@@ -198,9 +204,16 @@ class CalibratedModel:
 
     # ------------------------------------------------------------------ responses
     def responses(self, cells: Sequence[CellGeometry | TiltedCell], p_max: float, *,
-                  fallback: bool = True) -> list[Response | Exception]:
+                  fallback: bool = True, fast: bool = False) -> list[Response | Exception]:
         """A :class:`Response` per cell (Ritz fallback with a warning outside the support;
-        an exception instance for a cell that could not be answered)."""
+        an exception instance for a cell that could not be answered). ``fast``: the variant
+        on emulated Ritz features ("calibrated-fast"; :class:`MultimorphError` when the
+        shipped model has none)."""
+        if fast and not self.fast_kinds:
+            raise MultimorphError("calibrated model: the shipped model has no fast variant "
+                                  "(fit it with python -m multimorph.calibrated.fit model "
+                                  "--emulators)")
+        kinds = self.fast_kinds if fast else self.kinds
         p_max = float(p_max)
         if not (math.isfinite(p_max) and p_max > 0):
             raise SpecError(f"p_max must be a positive pressure, got {p_max!r} Pa")
@@ -209,22 +222,22 @@ class CalibratedModel:
         for i, c in enumerate(cells):
             by_kind.setdefault(kind_of(c), []).append(i)
         for kind, idx in by_kind.items():
-            if kind == "twisting" and kind not in self.kinds:
+            if kind == "twisting" and kind not in kinds:
                 # no tilted-cell calibration yet: the straight cell's calibrated response;
                 # the module takes the strip shear by the Ritz rule γ = ε sin 2β from it
                 straight = self.responses([cells[i].cell for i in idx],  # type: ignore[union-attr]
-                                          p_max, fallback=fallback)
+                                          p_max, fallback=fallback, fast=fast)
                 for i, r in zip(idx, straight, strict=True):
                     out[i] = (r if isinstance(r, Exception)
                               else _straight_for_tilted(r, cells[i]))  # type: ignore[arg-type]
                 continue
-            if kind not in self.kinds:
+            if kind not in kinds:
                 for i in idx:
                     out[i] = self._fallback(cells[i], p_max, {
                         "inside": False, "kind": kind, "outside": {},
                         "reason": f"no calibration for {kind} cells"}, fallback)
                 continue
-            pred = self.grid([cells[i] for i in idx])
+            pred = self.grid([cells[i] for i in idx], fast=fast)
             for r, i in enumerate(idx):
                 if not pred.inside[r]:
                     sup = self.support(cells[i])
@@ -235,7 +248,7 @@ class CalibratedModel:
                     out[i] = self._fallback(cells[i], p_max, sup, fallback)
                     continue
                 try:
-                    out[i] = self._response(cells[i], pred, r, p_max)
+                    out[i] = self._response(cells[i], pred, r, p_max, fast)
                 except Exception as exc:  # kept per design, as other batch models do
                     out[i] = exc
         return out
@@ -267,7 +280,7 @@ class CalibratedModel:
         return r.with_meta(model="ritz", calibration=cal)
 
     def _response(self, cell: CellGeometry | TiltedCell, pred: GridPrediction, r: int,
-                  p_max: float) -> Response:
+                  p_max: float, fast: bool = False) -> Response:
         c = cell.cell if isinstance(cell, TiltedCell) else cell
         t_end = float(pred.t_end[r])
         path = path_from_grid(pred.values[r], cell, t_end=t_end)
@@ -295,9 +308,10 @@ class CalibratedModel:
             s = float(np.interp(tc, T_GRID, std))
             return [pc * math.exp(-s), pc * math.exp(s)]
 
-        meta = {"model": "calibrated", "points": len(path),
+        meta = {"model": "calibrated-fast" if fast else "calibrated", "points": len(path),
                 "calibration": {
                     "inside": True, "kind": pred.kind, "outside": {},
+                    "features": "emulated" if fast else "ritz",
                     "log_pressure_std": float(np.interp(min(1.0, t_end), T_GRID, std)),
                     "critical_pressure_range": band(ch.critical),
                     "hardening_pressure_range": band(ch.hardening),

@@ -52,6 +52,7 @@ def evaluate(kind: str, set_name: str) -> dict[str, Any]:
     rows = np.flatnonzero(unseen)
     ritz = batch_model("ritz")
     out: dict[str, Any] = {"kind": kind, "set": set_name, "calibrated": [], "ritz": [],
+                           "calibrated-fast": [],
                            "curves": []}
     if rows.size == 0:
         return out
@@ -61,10 +62,19 @@ def evaluate(kind: str, set_name: str) -> dict[str, Any]:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", CalibrationWarning)
         cal = [model.responses([c], p)[0] for c, p in zip(cells, pmax, strict=True)]
+    fast: list[Any] = [None] * len(cells)
+    if model.fast_kinds:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", CalibrationWarning)
+            fast = [model.responses([c], p, fast=True)[0]
+                    for c, p in zip(cells, pmax, strict=True)]
     rz = [ritz([c.cell if hasattr(c, "tilt") else c], 3.0 * p)[0]
           for c, p in zip(cells, pmax, strict=True)]
     for j, r in enumerate(rows):
-        for name, resp in (("calibrated", cal[j]), ("ritz", rz[j])):
+        for name, resp in (("calibrated", cal[j]), ("ritz", rz[j]),
+                           ("calibrated-fast", fast[j])):
+            if resp is None:
+                continue
             if isinstance(resp, Exception):
                 out[name].append(None)
                 continue
@@ -112,7 +122,8 @@ def plot(results: list[dict[str, Any]], out: Path) -> list[str]:
         panels = (("Pc", "pc_fe", "pc_model"), ("Ph", "ph_fe", "ph_model"),
                   ("signal at 1.5 Pc (FE)", "y15_fe", "y15_model"))
         for ax, (label, a, b) in zip(axes, panels, strict=True):
-            for model, mk, col in (("calibrated", "o", "C0"), ("ritz", "x", "C3")):
+            for model, mk, col in (("calibrated", "o", "C0"), ("calibrated-fast", "+", "C2"),
+                                   ("ritz", "x", "C3")):
                 pts = [(getattr(r, a), getattr(r, b)) for r in res[model] if r is not None]
                 pts = [(x, y) for x, y in pts if x is not None and y is not None
                        and math.isfinite(x) and math.isfinite(y)]
@@ -181,7 +192,9 @@ def main(argv: list[str] | None = None) -> int:
           "p90 | max | curve ≤ 10 % | curve n | curve error median | p90 | max |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for res in results:
-        for model in ("calibrated", "ritz"):
+        for model in ("calibrated", "calibrated-fast", "ritz"):
+            if not res.get(model):
+                continue
             s = _table(res[model])
             metrics[f"{res['set']}/{model}"] = s
             within = s.get("curves_within_10pct", math.nan)

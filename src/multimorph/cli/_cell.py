@@ -62,12 +62,13 @@ def model_line(data: dict[str, Any]) -> str:
     """Which model produced a cell result, and how far that model is from 3D FE."""
     name = data.get("model", data.get("backend"))
     cal = data.get("calibration") or {}
-    if name == "calibrated":
+    if name in ("calibrated", "calibrated-fast"):
         lo, hi = cal.get("critical_pressure_range") or (None, None)
         band = (f"; Pc within {lo / 1e3:.3g} … {hi / 1e3:.3g} kPa (±1σ)"
                 if lo is not None and hi is not None else "")
-        return ("calibrated (Ritz corrected against 3D FE; held-out error in "
-                f"docs/validation.md){band}")
+        how = ("Ritz corrected against 3D FE" if name == "calibrated" else
+               "Ritz corrected against 3D FE, on emulated Ritz features")
+        return f"{name} ({how}; held-out error in docs/validation.md){band}"
     if name in ("ritz", "rom"):
         why = (f" — outside the calibrated model's support ({cal['reason']})"
                if cal.get("inside") is False else "")
@@ -120,9 +121,11 @@ def cell(
                    ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the JSON summary.")] = False,
     model: Annotated[str | None, typer.Option(
-        "--model", help="Cell model: calibrated (Ritz corrected against 3D FE), ritz (alias "
-                        "rom: the reduced model, about twice as stiff as FE) or fe (3D FE, "
-                        "minutes). Default: multimorph.models.DEFAULT_MODEL.")] = None,
+        "--model", help="Cell model: calibrated (Ritz corrected against 3D FE), "
+                        "calibrated-fast (the same on emulated Ritz features: faster, less "
+                        "accurate), ritz (alias rom: the reduced model, about twice as stiff "
+                        "as FE) or fe (3D FE, minutes). Default: "
+                        "multimorph.models.DEFAULT_MODEL.")] = None,
 ) -> None:
     """A unit cell by the chosen cell model: κ(P), Pc, Ph and a plot.
 

@@ -88,6 +88,8 @@ def _model_words(summary: dict[str, Any]) -> str:
     """The cell model(s) of a device result, and how far each is from 3D FE."""
     words = {"calibrated": "calibrated (Ritz corrected against 3D FE; errors in "
                            "docs/validation.md)",
+             "calibrated-fast": "calibrated-fast (Ritz corrected against 3D FE on emulated "
+                                "Ritz features; errors in docs/validation.md)",
              "ritz": "ritz (reduced model; Pc about 2 × the 3D FE's)", "fe": "fe (3D FE)"}
     fell_back = [n for n, m in summary["modules"].items()
                  if (m.get("calibration") or {}).get("inside") is False]
@@ -112,9 +114,10 @@ def simulate(
                                         help="GIF frames (0: no animation).")] = 24,
     as_json: Annotated[bool, typer.Option("--json", help="Print the JSON summary.")] = False,
     model: Annotated[str | None, typer.Option(
-        "--model", help="Cell model: calibrated (Ritz corrected against 3D FE), ritz (alias "
-                        "rom: the reduced model, about twice as stiff as FE) or fe (3D FE of "
-                        "each distinct cell, minutes each). Default: "
+        "--model", help="Cell model: calibrated (Ritz corrected against 3D FE), "
+                        "calibrated-fast (the same on emulated Ritz features: faster, less "
+                        "accurate), ritz (alias rom: the reduced model, about twice as stiff "
+                        "as FE) or fe (3D FE of each distinct cell, minutes each). Default: "
                         "multimorph.models.DEFAULT_MODEL.")] = None,
 ) -> None:
     """Simulate a device: per-module curves, the sequence of modes, shapes, an animation
