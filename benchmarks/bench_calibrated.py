@@ -2,6 +2,7 @@
 latency, and the first ``multimorph cell`` in a fresh process.
 
 Run: python benchmarks/bench_calibrated.py [--n 10000] [--workers 2]
+     [--model calibrated|calibrated-fast]
 
 Designs: a scrambled Sobol sample over the calibrated bending box (the FE data set's), the
 valid ones (chambers ≥ 0.1 d), each traced to 1.5 × a pressure scale of its own. A "full
@@ -21,9 +22,11 @@ import tempfile
 import time
 import warnings
 from concurrent.futures import ProcessPoolExecutor
+from functools import lru_cache
 from multiprocessing import get_context
 
 
+@lru_cache(maxsize=2)
 def designs(n: int, seed: int = 5) -> list:
     from multimorph.calibrated import reference_spec
 
@@ -32,8 +35,8 @@ def designs(n: int, seed: int = 5) -> list:
     return cells[:n]
 
 
-def _chunk(args: tuple[int, int, int]) -> tuple[int, float]:
-    n, i0, i1 = args
+def _chunk(args: tuple[int, int, int, bool]) -> tuple[int, float]:
+    n, i0, i1, fast = args
     from multimorph.calibrated import CalibrationWarning, load_model
 
     cells = designs(n)[i0:i1]
@@ -41,7 +44,7 @@ def _chunk(args: tuple[int, int, int]) -> tuple[int, float]:
     t = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", CalibrationWarning)
-        out = model.responses(cells, 150e3)
+        out = model.responses(cells, 150e3, fast=fast)
     return sum(not isinstance(r, Exception) for r in out), time.perf_counter() - t
 
 
@@ -50,21 +53,23 @@ def main() -> None:
     ap.add_argument("--n", type=int, default=10_000)
     ap.add_argument("--chunk", type=int, default=1000)
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 1)
+    ap.add_argument("--model", default="calibrated", choices=("calibrated", "calibrated-fast"))
     args = ap.parse_args()
+    fast = args.model == "calibrated-fast"
     rows: list[tuple[str, str]] = []
 
     def row(a: str, b: str) -> None:
         rows.append((a, b))
         print(f"{a:<52}  {b}", flush=True)
 
-    row("machine", f"{os.cpu_count()} cpus")
+    row("machine", f"{os.cpu_count()} cpus; model {args.model}")
     # 1. the first `multimorph cell` in a fresh process with an empty JAX cache
     with tempfile.TemporaryDirectory() as tmp:
         env = {**os.environ, "MULTIMORPH_JAX_CACHE": os.path.join(tmp, "jax")}
         t = time.perf_counter()
         r = subprocess.run([sys.executable, "-c", "from multimorph.cli import main; main()",
                             "cell", "examples/cell.toml", "--out", os.path.join(tmp, "o"),
-                            "--json"],
+                            "--json", "--model", args.model],
                            capture_output=True, text=True, env=env)
         dt = time.perf_counter() - t
         row("first `multimorph cell examples/cell.toml` (fresh)",
@@ -77,23 +82,23 @@ def main() -> None:
     cells = designs(args.n)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", CalibrationWarning)
-        model.responses(cells[:8], 150e3)
+        model.responses(cells[:8], 150e3, fast=fast)
         t = time.perf_counter()
         reps = 50
         for c in cells[:reps]:
-            model.responses([c], 150e3)
+            model.responses([c], 150e3, fast=fast)
         row("one curve, warm (mean of 50)", f"{(time.perf_counter() - t) / reps * 1e3:.2f} ms")
         t = time.perf_counter()
-        out = model.responses(cells[:args.chunk], 150e3)
+        out = model.responses(cells[:args.chunk], 150e3, fast=fast)
         dt = time.perf_counter() - t
-    inside = sum(not isinstance(r, Exception) and r.meta.get("model") == "calibrated"
+    inside = sum(not isinstance(r, Exception) and r.meta.get("model") == args.model
                  for r in out)
     row(f"batch of {args.chunk}, 1 process", f"{args.chunk / dt:.0f} curves/s "
         f"({inside} inside the calibrated box)")
     n = len(cells)
-    tasks = [(args.n, i0, min(i0 + args.chunk, n)) for i0 in range(0, n, args.chunk)]
+    tasks = [(args.n, i0, min(i0 + args.chunk, n), fast) for i0 in range(0, n, args.chunk)]
     with ProcessPoolExecutor(args.workers, mp_context=get_context("spawn")) as pool:
-        list(pool.map(_chunk, [(args.n, 0, 8)] * args.workers))
+        list(pool.map(_chunk, [(args.n, 0, 8, fast)] * args.workers))
         t = time.perf_counter()
         res = list(pool.map(_chunk, tasks))
         dt = time.perf_counter() - t

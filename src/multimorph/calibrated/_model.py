@@ -36,7 +36,7 @@ from multimorph.calibrated._fit import (
     model_inputs,
 )
 from multimorph.calibrated._gp import MultiOutputGP, matern52
-from multimorph.calibrated._representation import QUANTITIES, T_GRID, kind_of, path_from_grid
+from multimorph.calibrated._representation import QUANTITIES, T_GRID, kind_of, paths_from_grid
 from multimorph.errors import MultimorphError, SpecError
 from multimorph.geometry import CellGeometry, TiltedCell
 from multimorph.response import EquilibriumPath, Response, build_response
@@ -238,6 +238,10 @@ class CalibratedModel:
                         "reason": f"no calibration for {kind} cells"}, fallback)
                 continue
             pred = self.grid([cells[i] for i in idx], fast=fast)
+            rows = [r for r in range(len(idx)) if pred.inside[r]]
+            paths = dict(zip(rows, paths_from_grid(pred.values[rows], [cells[idx[r]]
+                                                                        for r in rows],
+                                                   pred.t_end[rows]), strict=True))
             for r, i in enumerate(idx):
                 if not pred.inside[r]:
                     sup = self.support(cells[i])
@@ -248,7 +252,7 @@ class CalibratedModel:
                     out[i] = self._fallback(cells[i], p_max, sup, fallback)
                     continue
                 try:
-                    out[i] = self._response(cells[i], pred, r, p_max, fast)
+                    out[i] = self._response(cells[i], pred, r, p_max, paths[r], fast)
                 except Exception as exc:  # kept per design, as other batch models do
                     out[i] = exc
         return out
@@ -280,10 +284,9 @@ class CalibratedModel:
         return r.with_meta(model="ritz", calibration=cal)
 
     def _response(self, cell: CellGeometry | TiltedCell, pred: GridPrediction, r: int,
-                  p_max: float, fast: bool = False) -> Response:
+                  p_max: float, path: EquilibriumPath, fast: bool = False) -> Response:
         c = cell.cell if isinstance(cell, TiltedCell) else cell
         t_end = float(pred.t_end[r])
-        path = path_from_grid(pred.values[r], cell, t_end=t_end)
         p_data = float(pred.p_end[r])
         path, reached = _truncate(path, min(p_max, p_data))
         reached = reached and p_max <= p_data

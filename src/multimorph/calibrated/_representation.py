@@ -30,7 +30,8 @@ from scipy.interpolate import PchipInterpolator
 from multimorph.geometry import CellGeometry, TiltedCell
 from multimorph.response import EquilibriumPath
 
-__all__ = ["QUANTITIES", "T_GRID", "grid_values", "path_from_grid", "quantities_of"]
+__all__ = ["QUANTITIES", "T_GRID", "grid_values", "path_from_grid", "paths_from_grid",
+           "quantities_of"]
 
 #: The log volume ratios t = log(V/V0) of the grid: dense at small inflation (the linear
 #: regime and the approach to the ballooning), then evenly up to V/V0 = 25 (the FE data set's stop).
@@ -100,12 +101,47 @@ def path_from_grid(values: np.ndarray, cell: CellGeometry | TiltedCell, *,
     """An :class:`EquilibriumPath` (SI) from grid values of :func:`grid_values`'s layout,
     on ``points`` log volumes from 0 to ``t_end`` (default the grid's end). Grid values are
     interpolated by monotone cubics in log t (the small-inflation regime is a power law)."""
-    c = _straight(cell)
-    kind = kind_of(cell)
-    names = QUANTITIES[kind]
+    names = QUANTITIES[kind_of(cell)]
     t_end = float(T_GRID[-1] if t_end is None else t_end)
     tt = np.concatenate([[0.0], np.geomspace(T_GRID[0], t_end, points - 1)])
     at = PchipInterpolator(np.log(T_GRID), values[:, :len(names)], axis=0)(np.log(tt[1:]))
+    return _path(at, tt, cell)
+
+
+def paths_from_grid(values: np.ndarray, cells: list[CellGeometry | TiltedCell],
+                    t_end: np.ndarray, *, points: int = 96) -> list[EquilibriumPath]:
+    """:func:`path_from_grid` of a batch of same-kind cells (values (n, J, Q), t_end (n,)):
+    one monotone cubic for the whole batch (the knots are shared), evaluated at each
+    design's own volumes — the same paths, without a spline object per design."""
+    n = len(cells)
+    if n == 0:
+        return []
+    nq = len(QUANTITIES[kind_of(cells[0])])
+    x = np.log(T_GRID)
+    J = len(x)
+    cols = np.moveaxis(np.asarray(values, float)[:, :, :nq], 1, 0).reshape(J, n * nq)
+    coef = PchipInterpolator(x, cols, axis=0).c            # (4, J − 1, n·nq)
+    u = np.linspace(0.0, 1.0, points - 1)
+    ends = np.log(np.asarray(t_end, float))
+    xe = x[0] + u[None, :] * (ends - x[0])[:, None]        # (n, points − 1) log volumes
+    seg = np.clip(np.searchsorted(x, xe, side="right") - 1, 0, J - 2)
+    dx = xe - x[seg]
+    out = []
+    for i in range(n):
+        c_i = coef[:, seg[i], i * nq:(i + 1) * nq]          # (4, points − 1, nq)
+        d = dx[i][:, None]
+        at = ((c_i[0] * d + c_i[1]) * d + c_i[2]) * d + c_i[3]
+        tt = np.concatenate([[0.0], np.exp(xe[i])])
+        out.append(_path(at, tt, cells[i]))
+    return out
+
+
+def _path(at: np.ndarray, tt: np.ndarray, cell: CellGeometry | TiltedCell) -> EquilibriumPath:
+    """The path of grid quantities ``at`` (points − 1, Q) read at log volumes ``tt[1:]``."""
+    c = _straight(cell)
+    kind = kind_of(cell)
+    names = QUANTITIES[kind]
+    points = len(tt)
     vals = {n: at[:, q] for q, n in enumerate(names)}
     P = np.concatenate([[0.0], np.exp(vals["log_p"])]) * c.mu
     y = np.concatenate([[0.0], vals["y_t"] * tt[1:]])
