@@ -83,4 +83,14 @@ def test_every_reference_spec_parses_and_covers_its_kind(name: str) -> None:
     spec = reference_spec(name)
     assert spec.backend == "fe" and spec.kind == REFERENCE_SETS[name]
     table = spec.design_table()
-    assert len(table.valid_indices) >= {"grid24": 24, "yeoh": 8}.get(name, 100)
+    assert len(table.valid_indices) >= {"grid24": 24, "yeoh": 8, "bending_narrow": 40,
+                                        "stretching_narrow": 25}.get(name, 100)
+    if name.endswith("_narrow"):
+        # a refinement set lies inside its kind's calibrated box (the main set's)
+        from multimorph.calibrated._box import Box, cell_groups
+
+        kind = REFERENCE_SETS[name]
+        box = Box.from_spec(kind, reference_spec(kind))
+        for cell in table.cells:
+            if cell is not None:
+                assert not box.outside(cell_groups(cell))

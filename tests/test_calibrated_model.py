@@ -104,7 +104,7 @@ def test_the_shipped_ritz_emulator_reproduces_the_ritz_features_it_stands_for() 
     if "bending" not in model.emulators:
         pytest.skip("the shipped model traces the Ritz model (no emulator)")
     test_err = model.manifest["emulators"]["bending"]["test_error"]
-    assert test_err["log_p_ritz_t075"]["median"] < 0.02
+    assert test_err["log_p_ritz_t075"]["median"] < 0.05
     assert test_err["log_pc_ritz"]["median"] < 0.05
     spec = dataclasses.replace(reference_spec("bending"), samples=16, seed=123)
     cells = [c for c in spec.design_table().cells if c is not None][:8]
