@@ -250,7 +250,8 @@ def test_fe_backend_without_the_fe_room_names_the_missing_piece(
 def test_unknown_backend_is_a_spec_error(tmp_path: Path) -> None:
     spec = write_spec(tmp_path)
     spec.write_text(spec.read_text().replace('"sphere"', '"cfd"'))
-    with pytest.raises(SpecError, match="unknown backend 'cfd'; known: calibrated, calibrated-fast, fe, ritz, rom"):
+    with pytest.raises(SpecError, match="unknown backend 'cfd'; known: calibrated, "
+                                        "calibrated-fast, fe, ritz, rom"):
         run_sweep(spec, tmp_path / "out", scheduler="sync")
 
 
