@@ -135,6 +135,6 @@ def test_demo_runs_the_whole_chain(tmp_path, monkeypatch):
     assert r.exit_code == 0, r.output
     d = json.loads(r.stdout)
     assert d["device"]["order"] == ["fingers", "twister"]
-    assert {"sequence.png", "shapes.png", "morph.gif", "summary.json"} <= {
+    assert {"sequence.png", "shapes.png", "morph.gif", "summary.json", "report.html"} <= {
         p.name for p in (out / "gripper").iterdir()}
     assert (out / "report.md").read_text().count("| fingers |") == 1

@@ -76,7 +76,7 @@ def _write(result: object, folder: Path, files: list[str], pressures: list[float
         shapes_figure(result, pressures).savefig(tmp / "shapes.png", dpi=110)
         update(1, 2, phase="report", detail="report.html")
         device_report_html(result, tmp / "report.html", summary=summary,
-                           model_text=_model_words(summary),
+                           model_text=model_words(summary),
                            frames=min(frames, MAX_REPORT_FRAMES) if frames else 12)
         if frames:
             write_animation(result, tmp / "morph.gif", frames=frames,
@@ -84,7 +84,7 @@ def _write(result: object, folder: Path, files: list[str], pressures: list[float
                                 done, total, phase="animation", detail=f"{done}/{total} frames"))
 
 
-def _model_words(summary: dict[str, Any]) -> str:
+def model_words(summary: dict[str, Any]) -> str:
     """The cell model(s) of a device result, and how far each is from 3D FE."""
     words = {"calibrated": "calibrated (Ritz corrected against 3D FE; errors in "
                            "docs/validation.md)",
@@ -161,7 +161,7 @@ def simulate(
         seq = result.sequence
         console.print(f"[bold]{device.name}[/]: {len(device.modules)} modules, "
                       f"P up to {result.pmax / 1e3:.4g} kPa; cell model: "
-                      f"{_model_words(summary)}", highlight=False)
+                      f"{model_words(summary)}", highlight=False)
         for name in seq.order:
             pc, ph = seq.windows[name]
             s = result.strains[name]
