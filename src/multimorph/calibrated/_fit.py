@@ -238,19 +238,26 @@ def refit_weights(gp: MultiOutputGP, x: np.ndarray, y: np.ndarray, mask: np.ndar
                          chol=np.linalg.cholesky(K) if keep_factor else np.zeros((0, 0)))
 
 
-def _emulable(cell: Any) -> bool:
+#: Wall laws the Ritz emulators stand for (cells of other laws trace the Ritz model).
+EMULATED_LAWS = ("gent",)
+
+
+def emulable(cell: Any) -> bool:
+    """Whether the Ritz emulator stands for ``cell`` (wall and bottom in :data:`EMULATED_LAWS`)."""
     c = cell.cell if hasattr(cell, "tilt") else cell
-    return c.material.model == "gent" and c.bottom_material.model == "gent"
+    return (c.material.model in EMULATED_LAWS and c.bottom_material is not None
+            and c.bottom_material.model in EMULATED_LAWS)
 
 
 def emulated_features(emu: MultiOutputGP, box: Box, cells: list[Any],
                       exact: np.ndarray) -> np.ndarray:
-    """The emulator's Ritz features for Gent/Gent cells (the exact ones for others)."""
+    """The emulator's Ritz features for the cells it stands for (the exact ones for others),
+    one prediction for the batch."""
     out = np.array(exact, float)
-    for i, cell in enumerate(cells):
-        if _emulable(cell):
-            g = cell_groups(cell)
-            out[i] = emu.predict(box.scaled(np.array([[g[n] for n in box.names]])))[0, :4]
+    rows = [i for i, cell in enumerate(cells) if emulable(cell)]
+    if rows:
+        groups = np.array([[cell_groups(cells[i])[n] for n in box.names] for i in rows])
+        out[rows] = emu.predict(box.scaled(groups))[:, :4]
     return out
 
 

@@ -35,6 +35,9 @@ from multimorph.calibrated._fit import (
     kind_features,
     model_inputs,
 )
+from multimorph.calibrated._fit import (
+    emulable as is_emulable,
+)
 from multimorph.calibrated._gp import MultiOutputGP, matern52
 from multimorph.calibrated._representation import QUANTITIES, T_GRID, kind_of, paths_from_grid
 from multimorph.errors import MultimorphError, SpecError
@@ -51,8 +54,6 @@ SUPPORT_CORRELATION = 0.3
 #: set specs' ``pmax_factor``): the calibrated path ends there too (beyond it the model
 #: would extrapolate in pressure).
 DATA_PMAX_FACTOR = 0.85
-#: Wall laws the emulated Ritz features stand for (others trace the Ritz model itself).
-_EMULATED_LAWS = ("gent",)
 
 
 class CalibrationWarning(UserWarning):
@@ -129,9 +130,7 @@ class CalibratedModel:
                   groups: np.ndarray, fast: bool = False) -> tuple[np.ndarray, np.ndarray]:
         fam = FAMILY[kind]
         straight = [c.cell if isinstance(c, TiltedCell) else c for c in cells]
-        emulable = np.array([c.material.model in _EMULATED_LAWS
-                             and c.bottom_material is not None
-                             and c.bottom_material.model in _EMULATED_LAWS for c in straight])
+        emulable = np.array([is_emulable(c) for c in straight])
         feats = np.full((len(cells), 4), np.nan)
         p_end = np.full(len(cells), np.inf)
         if not fast or fam not in self.emulators:
