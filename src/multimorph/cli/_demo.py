@@ -189,7 +189,7 @@ def demo(
             console.print(_device_markdown(report["device"]).split("![sequence]")[0],
                           markup=False, highlight=False)
         console.print(f"wrote {out}/report.md, report.json, silicone_fits.png"
-                      + (", gripper/ (sequence, shapes, morph.gif)" if device else ""))
+                      + (", gripper/ (sequence, shapes, morph.gif, report.html)" if device else ""))
 
 
 def register(app: typer.Typer) -> None:
