@@ -123,7 +123,15 @@ def batch_model(name: str | None = None, *, fallback: bool = True,
 
             return load_model().responses(list(cells), p_max, fallback=fallback, fast=fast)
 
+        def support_boxes() -> dict[str, Any]:
+            """The calibrated box of each cell kind (the designer searches inside them)."""
+            from multimorph.calibrated import load_model
+
+            m = load_model()
+            return {kind: k.box for kind, k in (m.fast_kinds if fast else m.kinds).items()}
+
         calibrated.batched = True  # type: ignore[attr-defined]
+        calibrated.support_boxes = support_boxes  # type: ignore[attr-defined]
         return calibrated
     if key == "ritz":
         from multimorph.rom import simulate_cells

@@ -127,8 +127,12 @@ class CalibratedModel:
 
     # ------------------------------------------------------------------ features
     def _features(self, kind: str, cells: Sequence[CellGeometry | TiltedCell],
-                  groups: np.ndarray, fast: bool = False) -> tuple[np.ndarray, np.ndarray]:
+                  groups: np.ndarray, fast: bool = False,
+                  gdicts: Sequence[dict[str, float]] | None = None,
+                  ) -> tuple[np.ndarray, np.ndarray]:
         fam = FAMILY[kind]
+        if gdicts is None:
+            gdicts = [cell_groups(c) for c in cells]
         straight = [c.cell if isinstance(c, TiltedCell) else c for c in cells]
         emulable = np.array([is_emulable(c) for c in straight])
         feats = np.full((len(cells), 4), np.nan)
@@ -137,8 +141,8 @@ class CalibratedModel:
             emulable[:] = False
         if emulable.any():
             ebox = self.emulator_boxes[fam]
-            fam_groups = np.array([[cell_groups(c)[n] for n in ebox.names]
-                                   for c, e in zip(cells, emulable, strict=True) if e])
+            fam_groups = np.array([[g[n] for n in ebox.names]
+                                   for g, e in zip(gdicts, emulable, strict=True) if e])
             pred = self.emulators[fam].predict(ebox.scaled(fam_groups))
             feats[emulable] = pred[:, :4]
             if pred.shape[1] > 4:  # the emulated Ritz Pc bounds the data, as the exact one
@@ -175,7 +179,8 @@ class CalibratedModel:
         rows = np.flatnonzero(inside)
         if rows.size:
             kf[rows], p_end[rows] = self._features(kind, [cells[i] for i in rows],
-                                                   groups[rows], fast)
+                                                   groups[rows], fast,
+                                                   [gdicts[i] for i in rows])
         # a cell whose Ritz path does not reach the feature volumes has no inputs: it is
         # answered like a cell outside the box (see responses)
         inside &= np.all(np.isfinite(kf), axis=1)

@@ -6,6 +6,13 @@ explanation when none can, and Monte Carlo robustness figures. See ``docs/design
 """
 
 from multimorph.design._evaluate import Evaluation, StageResult, evaluate_one
+from multimorph.design._mapped import (
+    Checker,
+    MappingRound,
+    mapped_design,
+    model_checker,
+    shift_target,
+)
 from multimorph.design._models import (
     ROM_BATCH_NAMES,
     BatchModel,
@@ -44,12 +51,14 @@ __all__ = [
     "VAR_NAMES",
     "BatchModel",
     "Candidate",
+    "Checker",
     "Constraints",
     "CountingModel",
     "DesignResult",
     "DesignRun",
     "DesignSettings",
     "Evaluation",
+    "MappingRound",
     "RobustnessReport",
     "SearchSpace",
     "Stage",
@@ -63,10 +72,13 @@ __all__ = [
     "evaluate_one",
     "evaluate_population",
     "graded_target",
+    "mapped_design",
     "material_stderr",
+    "model_checker",
     "robustness",
     "rom_batch_model",
     "run_design",
+    "shift_target",
     "single_cell",
     "target_from_spec",
     "write_design_report",

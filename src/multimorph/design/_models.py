@@ -193,6 +193,11 @@ class CountingModel:
         self.evaluations = 0
         self.calls = 0
 
+    def support_boxes(self) -> dict[str, Any] | None:
+        """The wrapped model's calibrated boxes per cell kind (``None``: no bounded support)."""
+        fn = getattr(self.model, "support_boxes", None)
+        return fn() if callable(fn) else None
+
     def __call__(self, cells: Sequence[CellGeometry], p_max: float) -> list[Any]:
         cells = list(cells)
         n = len(cells)

@@ -146,6 +146,9 @@ class DesignResult:
     robust_scores: dict[int, float] = field(default_factory=dict)
     gradient_steps: tuple[GradientStep, ...] = ()
     wanted: TargetSpec | None = None
+    rounds: tuple[Any, ...] = ()
+    """Space-mapping rounds (:class:`multimorph.design.MappingRound`) when the designs were
+    searched on a fast model and scored on an accurate one; empty otherwise."""
 
     @property
     def best(self) -> Evaluation | None:
@@ -167,6 +170,7 @@ class DesignResult:
                           "objective_after": step.objective_after, "trials": step.trials}
                          for step in self.gradient_steps],
             "graded": self.graded_stages(),
+            "rounds": [r.to_dict() for r in self.rounds],
         }
 
     def graded_stages(self) -> dict[str, Any]:
@@ -352,7 +356,7 @@ def _explain(space: SearchSpace, ev: Evaluation) -> list[str]:
 
 def design(target: TargetSpec, *, model: BatchModel | None = None,
            settings: DesignSettings | None = None, progress: Progress | None = None,
-           ) -> DesignResult:
+           x0: np.ndarray | None = None, radius: float | None = None) -> DesignResult:
     """Search for devices whose predicted sequence meets ``target``.
 
     Parameters
@@ -364,6 +368,13 @@ def design(target: TargetSpec, *, model: BatchModel | None = None,
     settings : DesignSettings, optional
     progress : callable, optional
         ``progress(evaluations, budget, phase)`` after every model call.
+    x0 : ndarray, optional
+        A design (unit vector of the searched stages) seeded into the initial population:
+        a warm start from an earlier search (the rounds of :func:`mapped_design`).
+    radius : float, optional
+        With ``x0``: search only the box ``x0 ± radius`` of the unit coordinates (a trust
+        region: the rounds of a space mapping correct the targets by ratios measured at
+        ``x0``, which hold near it).
 
     Returns
     -------
@@ -383,15 +394,29 @@ def design(target: TargetSpec, *, model: BatchModel | None = None,
         parts = graded_target(target, settings.graded_ratio)
         if parts is not target:
             wanted, target = target, parts
-    space = SearchSpace(target)
     raw = model if model is not None else rom_batch_model()
     counted = CountingModel(raw, pad_to=(settings.batch_cells
-                                         or settings.population * space.n_stages))
+                                         or settings.population * len(target.stages)))
+    # a model with a bounded support (the calibrated one): search inside it
+    boxes = counted.support_boxes()
+    space = SearchSpace(target, boxes=boxes)
     rng = np.random.default_rng(settings.seed)
     history: list[float] = []
     archive: dict[bytes, Evaluation] = {}
 
-    def run(X: np.ndarray, phase: str) -> list[Evaluation]:
+    # the searched region: the unit box, or a trust region around x0 (local coordinates
+    # X in [0, 1] map to lo + X (hi - lo))
+    lo, hi = np.zeros(space.dim), np.ones(space.dim)
+    if x0 is not None and radius is not None:
+        x0c = np.clip(np.asarray(x0, float).ravel(), 0.0, 1.0)
+        lo, hi = np.clip(x0c - radius, 0.0, 1.0), np.clip(x0c + radius, 0.0, 1.0)
+    span = np.where(hi > lo, hi - lo, 1.0)
+
+    def to_local(x: np.ndarray) -> np.ndarray:
+        return np.clip((np.asarray(x, float) - lo) / span, 0.0, 1.0)
+
+    def run(X: np.ndarray, phase: str, local: bool = True) -> list[Evaluation]:
+        X = lo + np.atleast_2d(X) * (hi - lo) if local else X
         evs = evaluate_population(space, X, counted)
         for e in evs:
             archive.setdefault(np.round(e.candidate.x, 6).tobytes(), e)
@@ -415,6 +440,11 @@ def design(target: TargetSpec, *, model: BatchModel | None = None,
     global_budget = settings.budget * (1.0 - settings.refine_fraction)
     X = (rng.permuted(np.tile(np.arange(n), (dim, 1)), axis=1).T
          + rng.random((n, dim))) / n                     # Latin hypercube
+    if x0 is not None:
+        x0 = np.clip(np.asarray(x0, float).ravel(), 0.0, 1.0)
+        if x0.shape != (dim,):
+            raise SpecError(f"x0: expected {dim} coordinates, got {x0.shape[0]}")
+        X[0] = to_local(x0)
     evs = run(X, "global")
     f = np.array([e.objective for e in evs])
     while counted.evaluations + n * S <= global_budget:
@@ -440,11 +470,11 @@ def design(target: TargetSpec, *, model: BatchModel | None = None,
     steps: list[GradientStep] = []
     if settings.gradient and settings.gradient_iterations > 0:
         gbest, steps = gradient_refine(
-            space, evs[kb], lambda Xg: run(Xg, "gradient"),
+            space, evs[kb], lambda Xg: run(Xg, "gradient", local=False),
             lambda k: counted.evaluations + k * S <= settings.budget,
             max_iter=settings.gradient_iterations)
         if gbest.objective < fb:
-            xb, fb = np.asarray(gbest.candidate.x, float).copy(), float(gbest.objective)
+            xb, fb = to_local(gbest.candidate.x), float(gbest.objective)
 
     # local stage: compass search on the continuous variables of the best design
     cont = [i * N_VARS + j for i in range(S) for j in (0, 1, 2, 3, 4, 5, 6, 9)]

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from multimorph.design._mapped import mapped_design, model_checker
 from multimorph.design._models import BatchModel, CountingModel, rom_batch_model, single_cell
 from multimorph.design._optimise import DesignResult, DesignSettings, design
 from multimorph.design._report import (
@@ -68,7 +69,8 @@ def run_design(target: TargetSpec, settings: DesignSettings, *,
                model: BatchModel | None = None, robustness_samples: int = 64,
                check_fe: bool = False,
                progress: Callable[[int, int, str], None] | None = None,
-               stage: Callable[[str], None] | None = None) -> DesignRun:
+               stage: Callable[[str], None] | None = None,
+               search_model: BatchModel | None = None, rounds: int = 3) -> DesignRun:
     """Design a device for ``target``, then check the best design.
 
     Parameters
@@ -85,6 +87,13 @@ def run_design(target: TargetSpec, settings: DesignSettings, *,
         Check the best design's cells with the FE model (:func:`verify_fe`).
     progress : callable, optional
         ``progress(done, total, phase)`` during the search.
+    search_model : BatchModel, optional
+        A faster model to search on (e.g. ``calibrated-fast``): its best designs are
+        scored by ``model``, and the targets are corrected by space mapping for up to
+        ``rounds`` more searches (:func:`~multimorph.design.mapped_design`). The report,
+        the Monte Carlo and the device simulation use ``model``.
+    rounds : int
+        Space-mapping corrections at most (with ``search_model``).
     stage : callable, optional
         ``stage(description)`` when a later step begins (robustness, FE check).
 
@@ -96,7 +105,13 @@ def run_design(target: TargetSpec, settings: DesignSettings, *,
     # one model, one batch shape for search, Monte Carlo and the final simulation
     model = CountingModel(model if model is not None else rom_batch_model(),
                           pad_to=settings.population * len(searched.stages))
-    result = design(target, model=model, settings=settings, progress=progress)
+    if search_model is None:
+        result = design(target, model=model, settings=settings, progress=progress)
+    else:
+        fast = CountingModel(search_model, pad_to=settings.population * len(searched.stages))
+        result = mapped_design(target, search_model=fast, check=model_checker(model),
+                               settings=settings, rounds=rounds, progress=progress,
+                               boxes=fast.support_boxes())
     target = result.target            # the searched stages (graded parts included)
     best = result.best
     report = None

@@ -14,6 +14,17 @@ Each stage owns :data:`N_VARS` coordinates in [0, 1] (unused ones are ignored)::
     9 tilt (twisting)            10° … 80°
 
 Every decoded cell is valid by construction (walls ≥ min_wall, chambers ≥ ``min_chamber``).
+
+With ``boxes`` (the calibrated model's support, one :class:`~multimorph.calibrated.Box` per
+cell kind) the same coordinates span the dimensionless groups inside the box instead:
+d first (the lengths for which every group's interval and the constraints overlap), then
+w/d, ws/d, h/d, ht/d, hb/d, df/d each within its box interval intersected with what
+``min_wall``, ``max_width``, ``max_height`` and a chamber of at least ``min_chamber`` and
+0.1 d (the data set's least chamber) leave; log groups interpolated in log. Wall
+materials whose (equivalent) Gent Jm lies outside the box and bottom materials whose
+modulus ratio does so are replaced by the nearest allowed one. A search on the calibrated
+model thus spends no evaluation on cells it would refuse.
+
 The number of cells of bend and twist modules is not searched: it follows from the wanted
 angle and the cell's predicted motion (:func:`cells_for`).
 """
@@ -21,8 +32,9 @@ angle and the cell's predicted motion (:func:`cells_for`).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 
@@ -37,6 +49,11 @@ N_VARS = 10
 VAR_NAMES = ("length", "width", "height", "top_wall", "bottom_wall", "side_wall", "end_wall",
              "material", "bottom_material", "tilt")
 TILT_RANGE = (math.radians(10.0), math.radians(80.0))
+#: The calibrated model's cell kind behind each stage kind (a twisting module's tilted cells
+#: are answered from their straight cell).
+BOX_KIND = {"bend": "bending", "twist": "bending", "stretch": "stretching"}
+#: Least chamber size of the FE data set, as a fraction of the cell length.
+BOX_MIN_CHAMBER = 0.1
 
 
 @dataclass(frozen=True)
@@ -65,6 +82,8 @@ class SearchSpace:
     target: TargetSpec
     d_range: tuple[float, float] = (4e-3, 20e-3)
     min_chamber: float = 1e-3
+    boxes: Mapping[str, Any] | None = field(default=None, compare=False)
+    """Calibrated support per cell kind (``"bending"``, ``"stretching"``): decode inside it."""
 
     @property
     def n_stages(self) -> int:
@@ -103,6 +122,13 @@ class SearchSpace:
         cells, tilts, midx = [], [], []
         for i, stage in enumerate(self.target.stages):
             u = x[i * N_VARS:(i + 1) * N_VARS]
+            box = self.boxes.get(BOX_KIND[stage.kind]) if self.boxes else None
+            boxed = _decode_in_box(u, box, self, stage.kind == "stretch") if box else None
+            if boxed is not None:
+                cells.append(boxed[0])
+                tilts.append(TILT_RANGE[0] + u[9] * (TILT_RANGE[1] - TILT_RANGE[0]))
+                midx.append(boxed[1])
+                continue
             d_lo, d_hi = max(self.d_range[0], lo), max(self.d_range[1], lo)
             d = d_lo + u[0] * (d_hi - d_lo)
             w = lo + u[1] * (max(c.max_width, lo) - lo)
@@ -135,6 +161,88 @@ class SearchSpace:
                 ((material if bottom is None else bottom) + 0.5) / nm, 0.5]
         u[0] = 0.0 if stiff else 1.0
         return np.tile(u, self.n_stages)
+
+
+def _interval(u: float, lo: float, hi: float, log: bool) -> float:
+    """A point of [lo, hi] (lo when the interval is empty), log-spaced when ``log``."""
+    if not hi > lo:
+        return lo
+    if log and lo > 0:
+        return float(math.exp(math.log(lo) + u * (math.log(hi) - math.log(lo))))
+    return lo + u * (hi - lo)
+
+
+_JM_CACHE: dict[Any, float] = {}
+
+
+def _jm(material: Any, fn: Any) -> float:
+    key = (material.model, tuple(sorted((k, float(v)) for k, v in material.params.items())))
+    if key not in _JM_CACHE:
+        _JM_CACHE[key] = float(fn(material))
+    return _JM_CACHE[key]
+
+
+def _nearest_allowed(j: int, allowed: Sequence[int], key: Sequence[float]) -> int:
+    if j in allowed or not allowed:
+        return j
+    return min(allowed, key=lambda k: (abs(math.log(key[k] / key[j])), k))
+
+
+def _decode_in_box(u: np.ndarray, box: Any, space: SearchSpace, sym: bool,
+                   ) -> tuple[CellGeometry, tuple[int, int]] | None:
+    """One stage's cell with its groups inside ``box`` (``None``: the box and the
+    constraints leave no cell length, then the plain decoding is used)."""
+    from multimorph.calibrated._box import _LINEAR, equivalent_jm
+
+    c = space.target.constraints
+    mats = c.materials
+    nm = len(mats)
+    lo_g = dict(zip(box.names, box.low, strict=True))
+    hi_g = dict(zip(box.names, box.high, strict=True))
+    tmin = c.min_wall
+    mc0 = space.min_chamber
+    # materials: wall Jm and bottom/wall modulus ratio inside the box
+    jms = [_jm(m, equivalent_jm) for m in mats]
+    mus = [m.shear_modulus for m in mats]
+    walls = [k for k in range(nm) if lo_g["jm"] * (1 - 1e-9) <= jms[k] <= hi_g["jm"] * (1 + 1e-9)]
+    im = _nearest_allowed(min(int(u[7] * nm), nm - 1), walls, jms)
+    if sym:
+        ib = im
+    else:
+        ratio_lo, ratio_hi = lo_g.get("mu_b/mu", 0.0), hi_g.get("mu_b/mu", math.inf)
+        bottoms = [k for k in range(nm)
+                   if ratio_lo * (1 - 1e-9) <= mus[k] / mus[im] <= ratio_hi * (1 + 1e-9)]
+        ib = _nearest_allowed(min(int(u[8] * nm), nm - 1), bottoms, mus)
+    # the cell lengths for which every group interval meets the constraints
+    walls_hi = [hi_g["ht/d"], hi_g["ws/d"], hi_g["df/d"]] + ([] if sym else [hi_g["hb/d"]])
+    d_lo = max(space.d_range[0], 2 * tmin + mc0, *(tmin / g for g in walls_hi))
+    d_hi = min(space.d_range[1], c.max_width / lo_g["w/d"], c.max_height / lo_g["h/d"])
+    if not d_hi >= d_lo:
+        return None
+    d = d_lo + u[0] * (d_hi - d_lo)
+    mc = max(mc0, BOX_MIN_CHAMBER * d) / d          # least chamber, in units of d
+    t = tmin / d                                    # least wall, in units of d
+
+    def pick(k: int, name: str, lo: float, hi: float) -> float:
+        return _interval(float(u[k]), max(lo_g[name], lo), min(hi_g[name], hi),
+                         name not in _LINEAR)
+
+    w = pick(1, "w/d", 2 * t + mc, c.max_width / d)
+    ws = pick(5, "ws/d", t, 0.5 * (w - mc))
+    h = pick(2, "h/d", 2 * t + mc, c.max_height / d)
+    a_t = max(lo_g["ht/d"], t)
+    if sym:
+        ht = pick(3, "ht/d", t, 0.5 * (h - mc))
+        hb = ht
+    else:
+        a_b = max(lo_g["hb/d"], t)
+        room = max(h - mc - a_t - a_b, 0.0)
+        ht = pick(3, "ht/d", t, a_t + 0.5 * room)
+        hb = pick(4, "hb/d", t, a_b + 0.5 * room)
+    df = pick(6, "df/d", t, 0.5 * (1.0 - mc))
+    cell = CellGeometry(d, w * d, h * d, ht * d, hb * d, ws * d, df * d, material=mats[im],
+                        bottom_material=mats[ib], symmetric=sym)
+    return cell, (im, ib)
 
 
 def cells_for(stage: Stage, per_cell: float, *, max_cells: int) -> int:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -141,9 +142,9 @@ class Material:
     def law(self) -> Law:
         return get_law(self.model)
 
-    @property
+    @cached_property
     def shear_modulus(self) -> float:
-        """Small-strain shear modulus μ (Pa)."""
+        """Small-strain shear modulus μ (Pa; computed once: a material does not change)."""
         return float(self.law.shear_modulus(self.params_1972))
 
     @property
