@@ -35,7 +35,12 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def targets_table(args: argparse.Namespace) -> int:
     """Every shipped target × seeds on the calibrated model (the CLI's default design)."""
-    from multimorph.design import DesignSettings, run_design, target_from_spec
+    from multimorph.design import (
+        GRADED_RATIO_CALIBRATED,
+        DesignSettings,
+        run_design,
+        target_from_spec,
+    )
     from multimorph.io import load_toml
     from multimorph.models import batch_model
 
@@ -66,7 +71,7 @@ def targets_table(args: argparse.Namespace) -> int:
         target = target_from_spec(load_toml(ROOT / "examples" / f"target_{name}.toml"))
         for seed in seeds:
             settings = DesignSettings(budget=args.budget, population=args.population,
-                                      seed=seed)
+                                      seed=seed, graded_ratio=GRADED_RATIO_CALIBRATED)
             t0 = time.perf_counter()
             run = run_design(target, settings, model=model, search_model=search,
                              rounds=args.rounds, robustness_samples=0)

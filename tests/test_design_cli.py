@@ -13,7 +13,7 @@ from typer.testing import CliRunner
 
 from multimorph.cli import _design
 from multimorph.device import device_from_spec, simulate_device
-from test_design_helpers import STANDIN, standin_cell
+from test_design_helpers import STANDIN, standin_cell, wide_gripper_text
 
 EXAMPLES = Path(__file__).parents[1] / "examples"
 
@@ -36,7 +36,9 @@ def run(app, *args):
 
 def test_design_writes_device_report_and_plots(app, tmp_path):
     out = tmp_path / "g"
-    r = run(app, EXAMPLES / "target_gripper.toml", "--out", out, "--budget", 2400,
+    wide = tmp_path / "target_gripper_wide.toml"
+    wide.write_text(wide_gripper_text())
+    r = run(app, wide, "--out", out, "--budget", 2400,
             "--population", 16, "--seed", 3, "--robustness", 24, "--json")
     assert r.exit_code == 0, r.output
     data = json.loads(r.stdout)
@@ -56,7 +58,7 @@ def test_design_writes_device_report_and_plots(app, tmp_path):
     md = (out / "report.md").read_text()
     assert "Robustness (Monte Carlo)" in md and "Graded stages" in md
     # same seed, same report (timings aside)
-    r2 = run(app, EXAMPLES / "target_gripper.toml", "--out", tmp_path / "g2", "--budget", 2400,
+    r2 = run(app, wide, "--out", tmp_path / "g2", "--budget", 2400,
              "--population", 16, "--seed", 3, "--robustness", 24, "--json")
     d2 = json.loads(r2.stdout)
     assert d2["designs"] == data["designs"] and d2["robustness"] == data["robustness"]
@@ -72,7 +74,7 @@ def test_no_graded_keeps_one_module_per_stage(app, tmp_path):
 
 def test_infeasible_exits_3_with_explanation(app, tmp_path):
     spec = (EXAMPLES / "target_gripper.toml").read_text().replace(
-        'max_pressure = "60 kPa"', 'max_pressure = "40 kPa"')
+        'max_pressure = "60 kPa"', 'max_pressure = "35 kPa"')
     target = tmp_path / "t.toml"
     target.write_text(spec)
     out = tmp_path / "o"

@@ -19,10 +19,10 @@ from multimorph.design import (
     DesignSettings,
     SearchSpace,
     batched,
+    correction_factors,
     design,
     mapped_design,
     model_checker,
-    shift_target,
     target_from_spec,
 )
 from multimorph.design._space import BOX_MIN_CHAMBER
@@ -114,21 +114,27 @@ def test_trust_region_keeps_designs_near_x0():
         assert np.all(np.abs(e.candidate.x - x0) <= 0.1 + 1e-9)
 
 
-def test_shift_target_undoes_a_known_bias():
+def test_correction_factors_measure_a_known_bias():
     t = load("target_jar_lifter.toml")
     r = design(t, model=STANDIN, settings=DesignSettings(budget=600, population=12, seed=2,
                                                          graded=False))
     best = r.best
     [checked] = model_checker(ACCURATE)(t, [best])
-    shifted, factors = shift_target(t, best, checked)
-    for stage, cell, new in zip(t.stages, best.candidate.cells, shifted.stages, strict=True):
-        # both pressures scale by the bias; one the accurate model does not reach (beyond
-        # max_pressure) borrows the other's ratio
-        for q in ("start_pressure", "end_pressure"):
-            assert factors[f"{stage.name}.{q}"] == pytest.approx(1.0 / bias(cell), rel=1e-6)
-        assert new.end_pressure == pytest.approx(
-            min(stage.end_pressure / bias(cell), 0.98 * t.constraints.max_pressure), rel=1e-9)
-        assert factors[f"{stage.name}.magnitude"] > 0
+    pmax = t.constraints.max_pressure
+    rho = correction_factors(best, checked, pmax)
+    for _stage, cell, s, c, f in zip(t.stages, best.candidate.cells, best.stages,
+                                    checked.stages, rho, strict=True):
+        for q, sv, cv in (("start_pressure", s.start, c.start), ("end_pressure", s.end, c.end)):
+            if cv is not None:          # the accurate model reaches it: the bias exactly
+                assert f[q] == pytest.approx(bias(cell), rel=1e-6)
+            else:                       # beyond max_pressure there: bounded just above it
+                assert f[q] == pytest.approx(1.1 * pmax / sv, rel=1e-6)
+                assert bias(cell) * sv > pmax
+    # the corrected stand-in reproduces the accurate model on this design
+    [again] = model_checker(STANDIN, rho)(t, [best])
+    for c, a in zip(checked.stages, again.stages, strict=True):
+        if c.start is not None:
+            assert a.start == pytest.approx(c.start, rel=1e-9)
 
 
 def test_mapped_design_meets_the_accurate_model():
@@ -153,8 +159,10 @@ def test_mapped_design_meets_the_accurate_model():
     d = r.to_dict()
     assert [rd["round"] for rd in d["rounds"]] == list(range(len(r.rounds)))
     assert d["rounds"][-1]["meets_targets"] is True
-    assert set(d["rounds"][0]["stages"][0]) >= {"wanted", "searched_for", "search_model",
+    assert set(d["rounds"][0]["stages"][0]) >= {"wanted", "correction", "search_model",
                                                 "check_model", "cells"}
+    assert d["rounds"][0]["stages"][0]["correction"] is None         # round 0: the model
+    assert d["rounds"][1]["stages"][0]["correction"]["end_pressure"] > 1  # then corrected
 
 
 def _standin(cell):

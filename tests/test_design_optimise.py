@@ -32,7 +32,7 @@ def load(name):
 
 
 @pytest.mark.parametrize(("name", "graded"), [
-    ("target_gripper.toml", True),                   # the twister's band becomes 2 parts
+    ("target_gripper.toml", True),                   # 30-40 kPa: one twister module
     ("target_jar_lifter.toml", True),                # nothing to grade
     ("target_double_curvature.toml", True),          # nothing to grade
     ("target_three_stage.toml", False),              # the stand-in spans Ph/Pc = 1.4 itself

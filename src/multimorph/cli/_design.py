@@ -58,7 +58,16 @@ def design_command(
     robust: Annotated[bool, typer.Option(
         "--robust", help="Rank the shortlist by a robust objective (Monte Carlo).")] = False,
     verify_fe: Annotated[bool, typer.Option(
-        "--verify-fe", help="Check the best design's cells with the FE model.")] = False,
+        "--verify-fe", help="Mesh the best design's whole device and inflate it in 3D FE; "
+        "report each stage's Pc, Ph and motion, model vs FE (minutes to tens of minutes; "
+        "resumable: finished FE runs are kept in <out>.fe and re-used).")] = False,
+    fe_rounds: Annotated[int | None, typer.Option(
+        "--fe-rounds", min=0, max=10,
+        help="FE in the loop (implies --verify-fe): where the device FE misses a target, "
+             "correct the targets by the model/FE ratio of the design and search again near "
+             "it, at most N times (default 0: verify only).")] = None,
+    fe_mesh: Annotated[str, typer.Option(
+        "--fe-mesh", help="Mesh of the device FE: coarse, medium or fine.")] = "coarse",
     vectorised: Annotated[bool, typer.Option(
         "--vectorised", help="Trace each batch with the vmapped ROM (default: a loop of "
         "single-design traces, faster on small CPUs today).")] = False,
@@ -111,18 +120,26 @@ def design_command(
                             f"{wall_tolerance!r}")
         if not (math.isfinite(default_cv) and default_cv >= 0):
             raise SpecError(f"--default-cv: must be a non-negative number, got {default_cv}")
+        if fe_rounds is not None:
+            verify_fe = True
+        if fe_mesh not in ("coarse", "medium", "fine"):
+            raise SpecError(f"--fe-mesh: expected coarse, medium or fine, got {fe_mesh!r}")
         if verify_fe:
             ok, why = fe_available()
             if not ok:
                 raise MultimorphError(f"--verify-fe: {why}")
-        hold.enter_context(claim_output(
-            out if out is not None else Path("multimorph-out") / f"design-{target.stem}"))
+        folder = out if out is not None else Path("multimorph-out") / f"design-{target.stem}"
+        hold.enter_context(claim_output(folder))
         calibrated = name.startswith("calibrated")
         if budget is None:
             budget = DEFAULT_BUDGET["calibrated" if calibrated else "ritz"]
         if population is None:
             population = DEFAULT_POPULATION["calibrated" if calibrated else "ritz"]
+        from multimorph.design import GRADED_RATIO, GRADED_RATIO_CALIBRATED
+
         settings = DesignSettings(budget=budget, population=population, seed=seed,
+                                  graded_ratio=(GRADED_RATIO_CALIBRATED if calibrated
+                                                else GRADED_RATIO),
                                   robust_samples=(16 if robust else 0), wall_tolerance=tol,
                                   default_cv=default_cv, gradient=gradient, graded=graded)
         with progress("design", unit="candidates", quiet=as_json) as update:
@@ -132,14 +149,15 @@ def design_command(
                              search_model=(batch_model("calibrated-fast", fallback=False)
                                            if name == "calibrated" else None),
                              rounds=rounds,
-                             robustness_samples=robustness, check_fe=verify_fe,
+                             robustness_samples=robustness,
+                             fe_rounds=(fe_rounds or 0) if verify_fe else None,
+                             fe_folder=Path(str(folder) + ".fe"), fe_mesh=fe_mesh,
                              progress=lambda done, total, phase: update(
                                  min(done, total), total, phase=f"search: {phase}"),
                              stage=lambda text: update(None, phase=text))
         if run.simulation_error is not None:
             err_console.print(f"[yellow]warning:[/] {run.simulation_error}")
         result = run.result
-        folder = out if out is not None else Path("multimorph-out") / f"design-{target.stem}"
         header = (f"designed by 'multimorph design {target.name} --seed {seed} "
                   f"--budget {budget} --model {name}'" + ("" if result.feasible else
                                            "\nINFEASIBLE target: closest design only"))
@@ -191,6 +209,20 @@ def _print_summary(result: Any, rob: Any, folder: Path, files: list[str]) -> Non
             console.print(f"  {stage.name:<12} {stage.kind:<8} Pc {pc} kPa, Ph {ph} kPa "
                           f"(wanted {stage.end_pressure / 1e3:.4g}), {mag}, {found.n_cells} "
                           f"cells", highlight=False)
+    if result.rounds:
+        console.print(f"  calibrated model: {len(result.rounds)} search round(s) on the fast "
+                      "variant, scored by the calibrated model", highlight=False)
+    if result.fe_rounds:
+        last = result.fe_rounds[-1]
+        verdict = "FE-verified" if result.fe_verified else "NOT FE-verified"
+        console.print(f"  3D FE of the device: {verdict} ({len(result.fe_rounds)} FE "
+                      "round(s))", highlight=False)
+        fe_best = result.fe_best
+        for stage, m, f in zip(last.wanted.stages, result.best.stages, fe_best.stages,
+                               strict=True):
+            console.print(f"    {stage.name:<12} Pc model {_kpa(m.start)} / FE {_kpa(f.start)}, "
+                          f"Ph model {_kpa(m.end)} / FE {_kpa(f.end)} (wanted "
+                          f"{_kpa(stage.end_pressure)})", highlight=False)
     if rob is not None:
         console.print(f"  robustness: P(order holds) = {rob.p_order:.1%}, P(all targets met) "
                       f"= {rob.p_meets:.1%} over {rob.n_samples} samples", highlight=False)

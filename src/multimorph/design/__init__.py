@@ -9,9 +9,9 @@ from multimorph.design._evaluate import Evaluation, StageResult, evaluate_one
 from multimorph.design._mapped import (
     Checker,
     MappingRound,
+    correction_factors,
     mapped_design,
     model_checker,
-    shift_target,
 )
 from multimorph.design._models import (
     ROM_BATCH_NAMES,
@@ -34,6 +34,7 @@ from multimorph.design._space import (
 )
 from multimorph.design._target import (
     GRADED_RATIO,
+    GRADED_RATIO_CALIBRATED,
     STAGE_KINDS,
     Constraints,
     Stage,
@@ -45,6 +46,7 @@ from multimorph.design._target import (
 
 __all__ = [
     "GRADED_RATIO",
+    "GRADED_RATIO_CALIBRATED",
     "N_VARS",
     "ROM_BATCH_NAMES",
     "STAGE_KINDS",
@@ -67,6 +69,7 @@ __all__ = [
     "Tolerance",
     "batched",
     "build_device",
+    "correction_factors",
     "design",
     "device_length",
     "evaluate_one",
@@ -78,7 +81,6 @@ __all__ = [
     "robustness",
     "rom_batch_model",
     "run_design",
-    "shift_target",
     "single_cell",
     "target_from_spec",
     "write_design_report",

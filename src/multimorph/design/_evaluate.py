@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -39,8 +39,8 @@ from multimorph.design._target import TargetSpec
 from multimorph.device import Device, Module, module_strains
 from multimorph.response import Response
 
-__all__ = ["FAILED_PENALTY", "MISSING_PENALTY", "Evaluation", "StageResult",
-           "evaluate_candidates", "evaluate_one"]
+__all__ = ["FAILED_PENALTY", "MISSING_PENALTY", "Evaluation", "Measured", "StageResult",
+           "evaluate_candidates", "evaluate_one", "score_measured"]
 
 MISSING_PENALTY = 100.0
 #: Objective added per stage whose cell model failed (no response at all).
@@ -121,32 +121,32 @@ def _stage_curve(module: Module, resp: Response) -> tuple[np.ndarray, np.ndarray
 def evaluate_candidates(space: SearchSpace, cands: Sequence[Candidate],
                         responses: Sequence[Sequence[Any]]) -> list[Evaluation]:
     """Score candidates from their cell responses (``responses[k][i]``: stage i of design k)."""
-    return [evaluate_one(space.target, c, r) for c, r in zip(cands, responses, strict=True)]
+    return [evaluate_one(space.target, c, r, correction=space.correction)
+            for c, r in zip(cands, responses, strict=True)]
 
 
 def evaluate_one(target: TargetSpec, cand: Candidate, resps: Sequence[Any],
-                 fixed_cells: Sequence[int] | None = None) -> Evaluation:
-    """Score one candidate; ``fixed_cells`` keeps given cell counts (else chosen per stage)."""
-    con, tol = target.constraints, target.tolerance
+                 fixed_cells: Sequence[int] | None = None,
+                 correction: Sequence[Mapping[str, float]] | None = None) -> Evaluation:
+    """Score one candidate; ``fixed_cells`` keeps given cell counts (else chosen per stage).
+
+    ``correction`` (one mapping per stage, keys ``start_pressure``, ``end_pressure``,
+    ``magnitude``): factors applied to the model's Pc, Ph and motion per cell before
+    anything is scored — the output space mapping of :func:`mapped_design`, so that the
+    targets, the stage order and the separations are all judged on corrected predictions.
+    """
+    con = target.constraints
     pmax = con.max_pressure
-    stages: list[StageResult] = []
-    dist: dict[str, float] = {}
-    viol: dict[str, float] = {}
-    missing = 0.0
-    failed = 0
-    n_cells: list[int] = []
-    problems: list[str] = []
+    measured: list[Measured] = []
     for i, stage in enumerate(target.stages):
         r = resps[i]
         cell = cand.cells[i]
+        fix = correction[i] if correction is not None else {}
+        f_pc, f_ph = fix.get("start_pressure", 1.0), fix.get("end_pressure", 1.0)
+        f_mag = fix.get("magnitude", 1.0)
         if not isinstance(r, Response):
-            missing += 2.0
-            failed += 1
-            problems.append(f"{stage.name}: model failed ({r})")
             n_fail = int(fixed_cells[i]) if fixed_cells is not None else 1
-            stages.append(StageResult(stage.name, stage.kind, None, None, 0.0, n_fail, None, None,
-                                      None))
-            n_cells.append(n_fail)
+            measured.append(Measured(None, None, 0.0, n_fail, failed=f"model failed ({r})"))
             continue
         ch = r.characteristic
         pc = ch.critical if ch.critical is not None and ch.critical <= pmax else None
@@ -154,17 +154,65 @@ def evaluate_one(target: TargetSpec, cand: Candidate, resps: Sequence[Any],
         probe = build_device_module(target, cand, i, 1)
         p, signal = _stage_curve(probe, r)
         at = ph if ph is not None else pmax
-        per_cell = _interp(p, signal, at)
+        per_cell = _interp(p, signal, at) * f_mag
+        if correction is not None:
+            pc = None if ch.critical is None or ch.critical * f_pc > pmax else ch.critical * f_pc
+            ph = (None if ch.hardening is None or ch.hardening * f_ph > pmax
+                  else ch.hardening * f_ph)
         max_cells = max(1, int(con.max_length // cell.length))
         n = (int(fixed_cells[i]) if fixed_cells is not None
              else cells_for(stage, per_cell, max_cells=max_cells))
-        n_cells.append(n)
         mag = per_cell * (n if stage.kind != "stretch" else 1)
         lp = np.asarray(r.loading.pressure, float)
         peak = _interp(lp, np.asarray(r.loading.peak_stretch, float), pmax) if lp.size else None
         brk = [mm.break_stretch for mm in (cell.material, cell.bottom_material)
                if mm is not None and mm.break_stretch]
         sf = (min(brk) / peak) if (brk and peak) else None
+        per_module = n if stage.kind != "stretch" else 1
+        at_max = _interp(p, signal, pmax) * per_module * f_mag if len(p) else None
+        measured.append(Measured(pc, ph, mag, n, sf, peak, ch.failure, at_max))
+    return score_measured(target, cand, measured, responses=tuple(resps))
+
+
+@dataclass(frozen=True)
+class Measured:
+    """What a model says of one stage's module (SI; ``None`` where not reached below the
+    maximum pressure): the input of :func:`score_measured`, from cell responses
+    (:func:`evaluate_one`) or from a 3D FE run of the whole device."""
+
+    start: float | None
+    end: float | None
+    magnitude: float
+    n_cells: int
+    safety_factor: float | None = None
+    peak_stretch: float | None = None
+    failure: float | None = None
+    magnitude_at_max: float | None = None
+    failed: str | None = None
+    """Why the model gave nothing for this stage (``None``: it did)."""
+
+
+def score_measured(target: TargetSpec, cand: Candidate, measured: Sequence[Measured], *,
+                   responses: tuple[Any, ...] = (), device: Device | None = None,
+                   ) -> Evaluation:
+    """Distances to the targets, constraint violations and the objective of a design whose
+    stages were measured (by any model). ``device`` defaults to the candidate's layout."""
+    con, tol = target.constraints, target.tolerance
+    stages: list[StageResult] = []
+    dist: dict[str, float] = {}
+    viol: dict[str, float] = {}
+    missing = 0.0
+    failed = 0
+    problems: list[str] = []
+    for i, (stage, m) in enumerate(zip(target.stages, measured, strict=True)):
+        if m.failed is not None:
+            missing += 2.0
+            failed += 1
+            problems.append(f"{stage.name}: {m.failed}")
+            stages.append(StageResult(stage.name, stage.kind, None, None, 0.0, m.n_cells, None,
+                                      None, None))
+            continue
+        pc, ph = m.start, m.end
         errs: dict[str, float] = {}
         if ph is None:
             missing += 1.0
@@ -177,7 +225,7 @@ def evaluate_one(target: TargetSpec, cand: Candidate, resps: Sequence[Any],
                 problems.append(f"{stage.name}: no critical pressure below max_pressure")
             else:
                 errs["start_pressure"] = (pc - stage.start_pressure) / stage.start_pressure
-        errs["magnitude"] = (mag - abs(stage.magnitude)) / abs(stage.magnitude)
+        errs["magnitude"] = (m.magnitude - abs(stage.magnitude)) / abs(stage.magnitude)
         if stage.part_of is not None:
             # a graded stage: only its first part's start and its last part's completion
             # are wanted pressures; in between, each part must take over where the previous
@@ -193,14 +241,14 @@ def evaluate_one(target: TargetSpec, cand: Candidate, resps: Sequence[Any],
         for k, e in errs.items():
             t = tol.magnitude if k == "magnitude" else tol.pressure
             dist[f"{stage.name}.{k}"] = e / t
-        if sf is not None:
-            viol[f"{stage.name}.safety_factor"] = ((con.min_safety_factor - sf)
+        if m.safety_factor is not None:
+            viol[f"{stage.name}.safety_factor"] = ((con.min_safety_factor - m.safety_factor)
                                                    / con.min_safety_factor)
-        per_module = n if stage.kind != "stretch" else 1
-        at_max = _interp(p, signal, pmax) * per_module if len(p) else None
-        stages.append(StageResult(stage.name, stage.kind, pc, ph, mag, n, sf, peak, ch.failure,
-                                  errs, at_max))
+        stages.append(StageResult(stage.name, stage.kind, pc, ph, m.magnitude, m.n_cells,
+                                  m.safety_factor, m.peak_stretch, m.failure, errs,
+                                  m.magnitude_at_max))
     # sequence constraints between consecutive stages
+    pmax = con.max_pressure
     for a, b in itertools.pairwise(stages):
         key = f"{a.name}->{b.name}"
         if b.start is None:
@@ -211,13 +259,14 @@ def evaluate_one(target: TargetSpec, cand: Candidate, resps: Sequence[Any],
         if a.end is not None:
             floor = con.separation_floor(b.start)
             viol[f"{key}.separation"] = (floor - (b.start - a.end)) / den
-    device = None
-    try:
-        device = build_device(target, cand, n_cells)
+    if device is None:
+        try:
+            device = build_device(target, cand, [m.n_cells for m in measured])
+        except Exception as exc:  # a layout the device room refuses
+            problems.append(f"device: {exc}")
+            missing += 1.0
+    if device is not None:
         viol["device.length"] = (device_length(device) - con.max_length) / con.max_length
-    except Exception as exc:  # a layout the device room refuses
-        problems.append(f"device: {exc}")
-        missing += 1.0
     f = float(sum(e * e for e in dist.values()))
     f += float(sum((4.0 * max(v, 0.0) / tol.pressure) ** 2 for v in viol.values()))
     f += MISSING_PENALTY * missing + FAILED_PENALTY * failed
@@ -226,7 +275,7 @@ def evaluate_one(target: TargetSpec, cand: Candidate, resps: Sequence[Any],
     meets = (missing == 0 and all(abs(e) <= 1.0 for e in dist.values())
              and all(v <= 0 for v in viol.values()))
     return Evaluation(candidate=cand, objective=f, meets=meets, stages=tuple(stages),
-                      violations=viol, distances=dist, device=device, responses=tuple(resps),
+                      violations=viol, distances=dist, device=device, responses=responses,
                       message="; ".join(problems))
 
 

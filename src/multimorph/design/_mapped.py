@@ -1,19 +1,19 @@
-"""Space mapping: search on a fast model, check on an accurate one, shift the targets.
+"""Space mapping: search on a fast model, check on an accurate one, correct, search again.
 
 A search model s(x) (cheap: the calibrated model on emulated Ritz features, thousands of
 curves a second) and a checking model c(x) (accurate and slower: the calibrated model on
 exact Ritz features, or the 3D FE of the whole device) differ by a bias that is smooth in
-the design and mostly multiplicative. Output space mapping: with x_k the best design of
-round k, the targets searched in round k + 1 are
+the design and mostly multiplicative. Output space mapping: with x_k the best checked
+design so far, round k + 1 searches on the corrected model
 
-    T_{k+1} = T · s(x_k) / c(x_k)
+    s̃(x) = s(x) · c(x_k) / s(x_k)
 
-per stage and quantity (start pressure, completion pressure, magnitude), so that a design
-that meets T_{k+1} in the search model meets T in the checking model as far as the bias
-holds near x_k. Round k + 1 starts from x_k (seeded into its population) and its best
-designs are checked again. The rounds stop when the checked best design meets T, or after
-``rounds`` corrections. Every round is kept: what was searched for, what the search model
-and the checking model say of its best design, and the factors applied next.
+per stage and quantity (Pc, Ph, motion), everything scored on s̃ — the distances to the
+targets and the stage order and separations alike — within a trust region around x_k
+(seeded into the population), and its best designs are checked again. The rounds stop
+when the best checked design meets the targets, or after ``rounds`` corrections. Every
+round is kept: the correction it searched with, what the search model and the checking
+model say of its best design, and the correction for the next.
 
 Sources: Bandler et al., "Space mapping: the state of the art", IEEE T-MTT 52 (2004)
 (output space mapping); Koziel, Bandler & Madsen, IEEE T-MTT 54 (2006) (its convergence
@@ -39,36 +39,42 @@ from multimorph.design._optimise import (
 from multimorph.design._space import SearchSpace
 from multimorph.design._target import TargetSpec, graded_target
 
-__all__ = ["Checker", "MappingRound", "mapped_design", "model_checker", "shift_target"]
+__all__ = ["Checker", "MappingRound", "correction_factors", "mapped_design", "model_checker"]
 
 #: ``check(target, evaluations) -> evaluations``: the same designs (candidates and cell
 #: counts) scored against ``target`` by the checking model.
 Checker = Callable[[TargetSpec, Sequence[Evaluation]], list[Evaluation]]
-#: Bounds of one round's correction factor (a factor outside them is clipped: a model
-#: that misses by more than 2 × is not corrected in one step).
+#: Bounds of one correction factor (a model that misses by more than 2 × is not corrected
+#: in one step).
 FACTOR_RANGE = (0.5, 2.0)
 QUANTITIES = ("start_pressure", "end_pressure", "magnitude")
+#: Designs a search returns to pick the checked ones from (see ``_diverse``).
+POOL = 64
+#: Where a pressure a model does not reach below max_pressure is put (× it).
+BEYOND = 1.1
+
+Correction = tuple[dict[str, float], ...]
 
 
 @dataclass(frozen=True, eq=False)
 class MappingRound:
-    """One round of :func:`mapped_design`.
+    """One round of a space-mapped design (model vs model, or model vs device FE).
 
     Attributes
     ----------
     index : int
-        0 for the first search (targets as wanted), then 1, 2, …
+        0 for the first search, then 1, 2, …
     wanted : TargetSpec
-        The targets as wanted (graded parts included).
-    searched : TargetSpec
-        The targets the search model was asked to meet in this round.
+        The targets (graded parts included).
+    correction : tuple of dict or None
+        The factors the round's search applied to its model (``None``: none).
     search : Evaluation
-        The round's best design as the search model scores it (against ``searched``).
+        The round's best design as the search model scores it, uncorrected.
     check : Evaluation
-        The same design as the checking model scores it (against the wanted targets).
+        The same design as the checking model scores it.
     factors : dict
-        ``"<stage>.<quantity>"`` → search/check ratio of this design: the wanted value is
-        multiplied by it to give the next round's target.
+        ``"<stage>.<quantity>"`` → check/search ratio at the best checked design so far:
+        the correction of the next round.
     evaluations : int
         Search-model evaluations of the round.
     wall_time : float
@@ -77,7 +83,7 @@ class MappingRound:
 
     index: int
     wanted: TargetSpec
-    searched: TargetSpec
+    correction: Correction | None
     search: Evaluation
     check: Evaluation
     factors: dict[str, float]
@@ -86,15 +92,13 @@ class MappingRound:
 
     def to_dict(self) -> dict[str, Any]:
         stages = []
-        for want, sought, s, c in zip(self.wanted.stages, self.searched.stages,
-                                      self.search.stages, self.check.stages, strict=True):
+        for i, (want, s, c) in enumerate(zip(self.wanted.stages, self.search.stages,
+                                             self.check.stages, strict=True)):
             stages.append({
                 "name": want.name, "kind": want.kind,
                 "wanted": {"start_pressure": want.start_pressure,
                            "end_pressure": want.end_pressure, "magnitude": abs(want.magnitude)},
-                "searched_for": {"start_pressure": sought.start_pressure,
-                                 "end_pressure": sought.end_pressure,
-                                 "magnitude": abs(sought.magnitude)},
+                "correction": None if self.correction is None else dict(self.correction[i]),
                 "search_model": {"start_pressure": s.start, "end_pressure": s.end,
                                  "magnitude": s.magnitude},
                 "check_model": {"start_pressure": c.start, "end_pressure": c.end,
@@ -107,48 +111,54 @@ class MappingRound:
                 "stages": stages}
 
 
-def shift_target(wanted: TargetSpec, search: Evaluation, check: Evaluation,
-                 ) -> tuple[TargetSpec, dict[str, float]]:
-    """The targets of the next round: each wanted value times the search/check ratio of the
-    current design (clipped to :data:`FACTOR_RANGE`; a pressure either model does not reach
-    takes the stage's other pressure ratio, 1 when neither is known).
-    Completion pressures stay below the supply pressure (a search target above it would be
-    refused as unreachable)."""
-    pmax = wanted.constraints.max_pressure
-    stages = []
-    factors: dict[str, float] = {}
-    for stage, s, c in zip(wanted.stages, search.stages, check.stages, strict=True):
-        raw = {q: _ratio(sv, cv) for q, sv, cv in (
-            ("start_pressure", s.start, c.start), ("end_pressure", s.end, c.end),
-            ("magnitude", s.magnitude, c.magnitude))}
-        # a pressure one model does not reach (beyond max_pressure) borrows the stage's
-        # other pressure ratio: both move with the cell's stiffness
+def correction_factors(search: Evaluation, check: Evaluation, p_max: float,
+                       ) -> Correction:
+    """Per stage, the check/search ratio of Pc, Ph and motion of one design (clipped to
+    :data:`FACTOR_RANGE`). A pressure one model does not reach below ``p_max`` (while that
+    model's stage also moves less: it is stiffer) is taken at :data:`BEYOND` × ``p_max``;
+    where the ratio is not known, the stage's other pressure ratio is used (both move
+    with the cell's stiffness), else 1."""
+    out = []
+    for s, c in zip(search.stages, check.stages, strict=True):
+        raw: dict[str, float | None] = {}
+        # a pressure the checking model lacks is beyond p_max only when the stage also moves
+        # less there (it is stiffer); a stage that moves as much or more without a knee
+        # says nothing about the ratio
+        stiffer = c.magnitude < s.magnitude
+        for q, sv, cv in (("start_pressure", s.start, c.start),
+                          ("end_pressure", s.end, c.end)):
+            if (sv is None and cv is None) or (cv is None and not stiffer) or (
+                    sv is None and stiffer):
+                raw[q] = None
+            else:
+                raw[q] = _ratio(BEYOND * p_max if cv is None else cv,
+                                BEYOND * p_max if sv is None else sv)
         if raw["end_pressure"] is None:
             raw["end_pressure"] = raw["start_pressure"]
         if raw["start_pressure"] is None:
             raw["start_pressure"] = raw["end_pressure"]
-        f = {}
-        for q, ratio in raw.items():
-            f[q] = 1.0 if ratio is None else min(max(ratio, FACTOR_RANGE[0]), FACTOR_RANGE[1])
-            factors[f"{stage.name}.{q}"] = f[q]
-        end = min(stage.end_pressure * f["end_pressure"], 0.98 * pmax)
-        start = (None if stage.start_pressure is None
-                 else min(stage.start_pressure * f["start_pressure"], end))
-        stages.append(replace(stage, start_pressure=start, end_pressure=end,
-                              magnitude=stage.magnitude * f["magnitude"]))
-    return replace(wanted, stages=tuple(stages)), factors
+        raw["magnitude"] = _ratio(c.magnitude, s.magnitude)
+        out.append({q: 1.0 if v is None else min(max(v, FACTOR_RANGE[0]), FACTOR_RANGE[1])
+                    for q, v in raw.items()})
+    return tuple(out)
 
 
-def _ratio(search: float | None, check: float | None) -> float | None:
-    if search is None or check is None or not (search > 0 and check > 0):
+def _flat(wanted: TargetSpec, correction: Correction) -> dict[str, float]:
+    return {f"{stage.name}.{q}": f[q] for stage, f in zip(wanted.stages, correction,
+                                                         strict=True) for q in QUANTITIES}
+
+
+def _ratio(num: float | None, den: float | None) -> float | None:
+    if num is None or den is None or not (num > 0 and den > 0):
         return None
-    r = search / check
+    r = num / den
     return r if math.isfinite(r) else None
 
 
-def model_checker(model: Any) -> Checker:
+def model_checker(model: Any, correction: Correction | None = None) -> Checker:
     """A checker that scores designs with a batch model (e.g. the exact calibrated model),
-    all designs in one call, each with the cell counts the search chose."""
+    all designs in one call, each with the cell counts the search chose; ``correction``
+    (e.g. FE/model factors) applied to the model's values."""
 
     def check(target: TargetSpec, evs: Sequence[Evaluation]) -> list[Evaluation]:
         cells = [c for e in evs for c in e.candidate.cells]
@@ -157,7 +167,7 @@ def model_checker(model: Any) -> Checker:
         out = list(model(cells, target.constraints.max_pressure))
         n = len(target.stages)
         return [evaluate_one(target, e.candidate, out[k * n:(k + 1) * n],
-                             fixed_cells=[s.n_cells for s in e.stages])
+                             fixed_cells=[s.n_cells for s in e.stages], correction=correction)
                 for k, e in enumerate(evs)]
 
     return check
@@ -167,8 +177,8 @@ def mapped_design(target: TargetSpec, *, search_model: Any, check: Checker,
                   settings: DesignSettings | None = None, rounds: int = 3,
                   round_budget: float = 0.4, progress: Progress | None = None,
                   boxes: Any = None, radius: float = 0.15, checked: int = 8,
-                  ) -> DesignResult:
-    """Search on ``search_model``, check on ``check``, correct the targets, search again.
+                  x0: Any = None, correction: Correction | None = None) -> DesignResult:
+    """Search on ``search_model``, check on ``check``, correct the model, search again.
 
     Parameters
     ----------
@@ -180,7 +190,7 @@ def mapped_design(target: TargetSpec, *, search_model: Any, check: Checker,
         Scores designs in the accurate model (:func:`model_checker`, or the device FE).
     settings : DesignSettings
         Of the first search; later rounds get ``round_budget`` × its budget, a warm start
-        from the best design so far and the next seed.
+        from the best checked design and the next seed.
     rounds : int
         Corrections at most (0: one search whose designs are only re-scored by ``check``).
     progress : callable, optional
@@ -188,35 +198,38 @@ def mapped_design(target: TargetSpec, *, search_model: Any, check: Checker,
     boxes : dict, optional
         The calibrated boxes the search keeps to (reported in an explanation's bounds).
     radius : float
-        Trust region of the later rounds: ± this much of every unit coordinate around
+        Trust region of the corrected rounds: ± this much of every unit coordinate around
         the best checked design so far (the correction holds near it).
     checked : int
         Distinct designs of each search scored by ``check`` (the best of them is kept).
+    x0, correction
+        Start the first search from the design ``x0`` (within ``radius``) with this
+        correction of the search model (a search that corrects an earlier design: FE in
+        the loop).
 
     Returns
     -------
     DesignResult
-        Ranked designs as the *checking* model scores them (the search's best designs of
-        every round), ``feasible`` when the best one meets the wanted targets there,
-        ``rounds`` with every round's record.
+        Ranked designs as the *checking* model scores them (the checked designs of every
+        round), ``feasible`` when the best one meets the targets there, ``rounds`` with
+        every round's record.
     """
     settings = settings or DesignSettings()
     t0 = time.perf_counter()
     searched = graded_target(target, settings.graded_ratio) if settings.graded else target
     wanted_whole = target if searched is not target else None
+    pmax = searched.constraints.max_pressure
     plain = replace(settings, graded=False)
-    goal = searched
-    x0 = None
     records: list[MappingRound] = []
     checked_all: list[Evaluation] = []
     evaluations = calls = 0
     history: list[float] = []
     last: DesignResult | None = None
     n_check = max(1, int(checked))
-    incumbent: tuple[Evaluation, Evaluation] | None = None   # (search, check) of the best
+    incumbent: tuple[Evaluation, Evaluation] | None = None   # (search raw, check) of the best
     for k in range(rounds + 1):
         t1 = time.perf_counter()
-        st = replace(plain, top=max(settings.top, n_check))
+        st = replace(plain, top=max(settings.top, POOL))
         if k > 0:
             st = replace(st, budget=max(1, int(settings.budget * round_budget)),
                          seed=settings.seed + k)
@@ -225,30 +238,40 @@ def mapped_design(target: TargetSpec, *, search_model: Any, check: Checker,
             if progress is not None:
                 progress(done, total, phase if _k == 0 else f"round {_k}: {phase}")
 
-        res = design(goal, model=search_model, settings=st, progress=tell, x0=x0,
-                     radius=None if x0 is None else radius)
+        res = design(searched, model=search_model, settings=st, progress=tell, x0=x0,
+                     radius=None if x0 is None else radius, correction=correction)
         last = res
         evaluations += res.evaluations
         calls += res.model_calls
         history.extend(res.history)
         if res.best is None:          # refused up front (static bounds, reachability)
             break
-        scored = check(searched, res.designs[:n_check])
+        cands = _diverse(searched, res.designs, n_check, search_model, boxes)
+        scored = check(searched, cands)
+        # the stages interact only through the sequence constraints: join each stage's
+        # best checked cell into one more design and check it too
+        joined = _join_stages(searched, cands, scored, search_model, boxes)
+        if joined is not None:
+            cands.append(joined)
+            scored += check(searched, [joined])
         checked_all.extend(scored)
         j = min(range(len(scored)), key=lambda i: scored[i].objective)
+        raw = _rescore(searched, cands[j])
         if incumbent is None or scored[j].objective < incumbent[1].objective:
-            incumbent = (_rescore(searched, res.designs[j]), scored[j])
-        # the next targets: corrected at the best checked design so far, searched near it
-        nxt, factors = shift_target(searched, *incumbent)
-        records.append(MappingRound(k, searched, goal, res.designs[j], scored[j], factors,
-                                    res.evaluations, time.perf_counter() - t1))
+            incumbent = (raw, scored[j])
+        # the next correction: check/search at the best checked design so far, near which
+        # the next round searches
+        nxt = correction_factors(*incumbent, pmax)
+        records.append(MappingRound(k, searched, correction, raw, scored[j],
+                                    _flat(searched, nxt), res.evaluations,
+                                    time.perf_counter() - t1))
         if progress is not None:
             progress(evaluations, evaluations, f"round {k} checked: "
                      + ("meets the targets" if scored[j].meets
                         else f"objective {scored[j].objective:.3g}"))
         if incumbent[1].meets:
             break
-        goal, x0 = nxt, incumbent[1].candidate.x
+        correction, x0 = nxt, incumbent[1].candidate.x
     assert last is not None
     if not checked_all:               # nothing searched: the refusal stands as it is
         return replace(last, target=searched, wanted=wanted_whole,
@@ -270,7 +293,94 @@ def mapped_design(target: TargetSpec, *, search_model: Any, check: Checker,
                         wanted=wanted_whole, rounds=tuple(records))
 
 
+def _diverse(target: TargetSpec, pool: Sequence[Evaluation], k: int, search_model: Any,
+             boxes: Any) -> list[Evaluation]:
+    """``k`` designs to check: the search's best, then designs joining each stage's next
+    best distinct cell in the search model (ranked by :func:`stage_score`), so that a cell
+    the checking model contradicts is not the only one checked for its stage."""
+    import numpy as np
+
+    from multimorph.design._optimise import evaluate_population
+    from multimorph.design._space import N_VARS
+
+    pool = list(pool)
+    S = len(target.stages)
+    if len(pool) <= 1 or k <= 1 or S < 2:
+        return pool[:k]
+    slices: list[list[np.ndarray]] = []
+    counts: list[list[int]] = []
+    for i in range(S):
+        ranked = sorted(range(len(pool)), key=lambda j, _i=i: stage_score(pool[j], _i))
+        seen: set[bytes] = set()
+        xs, ns = [], []
+        for j in ranked:
+            z = pool[j].candidate.x[i * N_VARS:(i + 1) * N_VARS]
+            key = np.round(z, 2).tobytes()
+            if key in seen:
+                continue
+            seen.add(key)
+            xs.append(z)
+            ns.append(pool[j].stages[i].n_cells)
+            if len(xs) >= k - 1:
+                break
+        slices.append(xs)
+        counts.append(ns)
+    m = min(len(xs) for xs in slices)
+    if m == 0:
+        return pool[:k]
+    X = np.array([np.concatenate([slices[i][r] for i in range(S)]) for r in range(m)])
+    evs = evaluate_population(SearchSpace(target, boxes=boxes), X, search_model)
+    joined = [evaluate_one(target, e.candidate, e.responses,
+                           fixed_cells=[counts[i][r] for i in range(S)])
+              for r, e in enumerate(evs)]
+    return [pool[0], *joined][:k]
+
+
+def stage_score(ev: Evaluation, i: int) -> float:
+    """How well stage ``i`` of a scored design meets its own targets: the squared distances
+    of its quantities, its safety-factor violation, and the penalties for a pressure not
+    reached (the objective's terms that belong to that stage alone)."""
+    from multimorph.design._evaluate import MISSING_PENALTY
+
+    sr = ev.stages[i]
+    name = sr.name
+    wanted_start = any(k == f"{name}.start_pressure" for k in ev.distances)
+    f = sum(d * d for k, d in ev.distances.items() if k.split(".", 1)[0] == name)
+    v = ev.violations.get(f"{name}.safety_factor", 0.0)
+    f += (4.0 * max(v, 0.0) / 0.1) ** 2
+    if sr.end is None:
+        f += MISSING_PENALTY
+    if sr.start is None and (wanted_start or i > 0):
+        f += MISSING_PENALTY
+    return float(f)
+
+
+def _join_stages(target: TargetSpec, cands: Sequence[Evaluation],
+                 scored: Sequence[Evaluation], search_model: Any,
+                 boxes: Any) -> Evaluation | None:
+    """A design of each stage's best checked cell (``None`` when that is one of ``cands``),
+    as the search model scores it."""
+    import numpy as np
+
+    from multimorph.design._optimise import evaluate_population
+    from multimorph.design._space import N_VARS
+
+    if len(cands) < 2 or len(target.stages) < 2:
+        return None
+    picks = [min(range(len(scored)), key=lambda k, _i=i: stage_score(scored[k], _i))
+             for i in range(len(target.stages))]
+    if len(set(picks)) == 1:
+        return None
+    x = np.concatenate([cands[k].candidate.x[i * N_VARS:(i + 1) * N_VARS]
+                        for i, k in enumerate(picks)])
+    space = SearchSpace(target, boxes=boxes)
+    [ev] = evaluate_population(space, x[None, :], search_model)
+    # keep each stage's cell count from the design it came from
+    return evaluate_one(target, ev.candidate, ev.responses,
+                        fixed_cells=[cands[k].stages[i].n_cells for i, k in enumerate(picks)])
+
+
 def _rescore(target: TargetSpec, ev: Evaluation) -> Evaluation:
-    """A search-model evaluation scored against ``target`` with its own cell counts."""
+    """A model evaluation scored against ``target`` with its own cell counts, uncorrected."""
     return evaluate_one(target, ev.candidate, ev.responses,
                         fixed_cells=[s.n_cells for s in ev.stages])

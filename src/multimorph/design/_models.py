@@ -189,7 +189,10 @@ class CountingModel:
 
     def __init__(self, model: BatchModel, pad_to: int | None = None) -> None:
         self.model = model
-        self.pad_to = pad_to if getattr(model, "batched", False) else None
+        # padding helps a jitted model (one compiled shape); a model without compilation
+        # (the calibrated one says ``fixed_shape = False``) would only evaluate the padding
+        self.pad_to = (pad_to if getattr(model, "batched", False)
+                       and getattr(model, "fixed_shape", True) else None)
         self.evaluations = 0
         self.calls = 0
 

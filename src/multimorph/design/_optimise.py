@@ -22,7 +22,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -77,6 +77,14 @@ class DesignSettings:
         identical cells to span it.
     graded_ratio : float
         Widest band end/start of one module when grading.
+    stagewise : bool
+        Before the joint search, search each stage's cell alone against its own targets
+        (scipy's differential evolution on its 10 coordinates, one cell per design), and
+        start the joint search from combinations of the stages' best cells. The stages
+        interact only through the sequence constraints and the device length, so this
+        finds every stage's region at a fraction of the joint search's cost.
+    stage_fraction : float
+        Share of the global budget spent on the stage-by-stage searches.
     """
 
     budget: int = 1200
@@ -93,6 +101,8 @@ class DesignSettings:
     gradient_iterations: int = 12
     graded: bool = True
     graded_ratio: float = GRADED_RATIO
+    stagewise: bool = True
+    stage_fraction: float = 0.5
 
     def __post_init__(self) -> None:
         if self.population < 4:
@@ -149,6 +159,16 @@ class DesignResult:
     rounds: tuple[Any, ...] = ()
     """Space-mapping rounds (:class:`multimorph.design.MappingRound`) when the designs were
     searched on a fast model and scored on an accurate one; empty otherwise."""
+    fe_rounds: tuple[Any, ...] = ()
+    """FE in the loop: per round the best design as the model and as the device FE score
+    it (:class:`multimorph.design.MappingRound`, ``check`` the FE); empty without FE."""
+    fe_best: Evaluation | None = None
+    """The FE evaluation of the best FE-checked design (``designs[0]``), if any."""
+
+    @property
+    def fe_verified(self) -> bool | None:
+        """Whether the device FE meets every target (``None``: no device FE was run)."""
+        return None if self.fe_best is None else bool(self.fe_best.meets)
 
     @property
     def best(self) -> Evaluation | None:
@@ -171,6 +191,9 @@ class DesignResult:
                          for step in self.gradient_steps],
             "graded": self.graded_stages(),
             "rounds": [r.to_dict() for r in self.rounds],
+            "fe_verified": self.fe_verified,
+            "fe_rounds": [r.to_dict() for r in self.fe_rounds],
+            "fe": None if self.fe_best is None else self.fe_best.to_dict(),
         }
 
     def graded_stages(self) -> dict[str, Any]:
@@ -214,6 +237,62 @@ def evaluate_population(space: SearchSpace, X: np.ndarray, model: Any) -> list[E
     stage_count = space.n_stages
     resps = [out[k * stage_count:(k + 1) * stage_count] for k in range(len(cands))]
     return evaluate_candidates(space, cands, resps)
+
+
+def _stagewise_start(space: SearchSpace, X: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+                     to_local: Callable[[np.ndarray], np.ndarray], model: Any,
+                     rng: np.random.Generator, settings: DesignSettings, *, budget: float,
+                     progress: Callable[[str], None] | None) -> np.ndarray:
+    """The joint search's first population from stage-by-stage searches (see
+    ``DesignSettings.stagewise``): row 0 joins every stage's best cell, the other rows
+    random picks among each stage's best distinct cells; ``X`` (local coordinates) is
+    returned unchanged where a stage search finds nothing."""
+    from scipy.optimize import differential_evolution
+
+    t = space.target
+    S = space.n_stages
+    n = X.shape[0]
+    per_stage = max(int(budget // S), 0)
+    popsize = 5                                   # × 10 coordinates: 50 cells a generation
+    generations = per_stage // (popsize * N_VARS) - 1
+    if generations < 2:
+        return X
+    X = X.copy()
+    for i, stage in enumerate(t.stages):
+        sub = replace(t, stages=(replace(stage, part_of=None),))
+        sub_space = SearchSpace(sub, d_range=space.d_range, min_chamber=space.min_chamber,
+                                boxes=space.boxes,
+                                correction=None if space.correction is None
+                                else (space.correction[i],))
+        sl = slice(i * N_VARS, (i + 1) * N_VARS)
+        b_lo, b_hi = lo[sl], np.maximum(hi[sl], lo[sl] + 1e-9)
+        seen: dict[bytes, tuple[float, np.ndarray]] = {}
+
+        def f(Z: np.ndarray, _space: SearchSpace = sub_space,
+              _seen: dict[bytes, tuple[float, np.ndarray]] = seen) -> np.ndarray:
+            Z = np.atleast_2d(Z.T)
+            evs = evaluate_population(_space, Z, model)
+            out = np.array([e.objective for e in evs])
+            for z, v in zip(Z, out, strict=True):
+                _seen.setdefault(np.round(z, 3).tobytes(), (float(v), z.copy()))
+            return out
+
+        differential_evolution(f, list(zip(b_lo, b_hi, strict=True)), popsize=popsize,
+                               maxiter=generations, init="latinhypercube", polish=False,
+                               vectorized=True, updating="deferred",
+                               seed=int(rng.integers(2**31)), tol=0.0, mutation=(0.5, 0.9),
+                               recombination=0.8)
+        if progress is not None:
+            progress(f"stage {stage.name}")
+        best = sorted(seen.values(), key=lambda vz: vz[0])[:max(4, n // 2)]
+        if not best:
+            continue
+        picks = [best[0][1]] + [best[int(k)][1] for k in rng.integers(0, len(best), n - 1)]
+        for row, z in enumerate(picks):
+            full = lo + X[row] * (hi - lo)
+            full[sl] = z
+            X[row] = to_local(full)
+    return X
 
 
 def _static_checks(space: SearchSpace) -> list[str]:
@@ -356,7 +435,8 @@ def _explain(space: SearchSpace, ev: Evaluation) -> list[str]:
 
 def design(target: TargetSpec, *, model: BatchModel | None = None,
            settings: DesignSettings | None = None, progress: Progress | None = None,
-           x0: np.ndarray | None = None, radius: float | None = None) -> DesignResult:
+           x0: np.ndarray | None = None, radius: float | None = None,
+           correction: Any = None) -> DesignResult:
     """Search for devices whose predicted sequence meets ``target``.
 
     Parameters
@@ -375,6 +455,9 @@ def design(target: TargetSpec, *, model: BatchModel | None = None,
         With ``x0``: search only the box ``x0 ± radius`` of the unit coordinates (a trust
         region: the rounds of a space mapping correct the targets by ratios measured at
         ``x0``, which hold near it).
+    correction : sequence of mapping, optional
+        Per stage, factors on the model's Pc, Ph and motion before scoring (output space
+        mapping, :func:`mapped_design`).
 
     Returns
     -------
@@ -399,7 +482,8 @@ def design(target: TargetSpec, *, model: BatchModel | None = None,
                                          or settings.population * len(target.stages)))
     # a model with a bounded support (the calibrated one): search inside it
     boxes = counted.support_boxes()
-    space = SearchSpace(target, boxes=boxes)
+    space = SearchSpace(target, boxes=boxes,
+                        correction=None if correction is None else tuple(correction))
     rng = np.random.default_rng(settings.seed)
     history: list[float] = []
     archive: dict[bytes, Evaluation] = {}
@@ -445,6 +529,14 @@ def design(target: TargetSpec, *, model: BatchModel | None = None,
         if x0.shape != (dim,):
             raise SpecError(f"x0: expected {dim} coordinates, got {x0.shape[0]}")
         X[0] = to_local(x0)
+    if settings.stagewise and S > 1:
+        X = _stagewise_start(space, X, lo, hi, to_local, counted, rng, settings,
+                             budget=settings.stage_fraction * global_budget,
+                             progress=None if progress is None else (
+                                 lambda phase: progress(counted.evaluations, settings.budget,
+                                                        phase)))
+        if x0 is not None:
+            X[0] = to_local(x0)
     evs = run(X, "global")
     f = np.array([e.objective for e in evs])
     while counted.evaluations + n * S <= global_budget:

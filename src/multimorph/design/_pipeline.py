@@ -11,17 +11,28 @@ figures.
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from multimorph.design._mapped import mapped_design, model_checker
+from multimorph.design._evaluate import Evaluation
+from multimorph.design._fe_check import fe_checker
+from multimorph.design._mapped import (
+    MappingRound,
+    _flat,
+    _rescore,
+    correction_factors,
+    mapped_design,
+    model_checker,
+)
 from multimorph.design._models import BatchModel, CountingModel, rom_batch_model, single_cell
 from multimorph.design._optimise import DesignResult, DesignSettings, design
 from multimorph.design._report import (
     convergence_figure,
     device_toml,
+    fe_figure,
     report_dict,
     report_markdown,
     robustness_figure,
@@ -70,7 +81,10 @@ def run_design(target: TargetSpec, settings: DesignSettings, *,
                check_fe: bool = False,
                progress: Callable[[int, int, str], None] | None = None,
                stage: Callable[[str], None] | None = None,
-               search_model: BatchModel | None = None, rounds: int = 3) -> DesignRun:
+               search_model: BatchModel | None = None, rounds: int = 3,
+               fe_rounds: int | None = None, fe_folder: Path | None = None,
+               fe_mesh: str = "coarse", fe_wall_elements: int | None = None,
+               fe_max_steps: int = 400) -> DesignRun:
     """Design a device for ``target``, then check the best design.
 
     Parameters
@@ -94,6 +108,13 @@ def run_design(target: TargetSpec, settings: DesignSettings, *,
         the Monte Carlo and the device simulation use ``model``.
     rounds : int
         Space-mapping corrections at most (with ``search_model``).
+    fe_rounds : int, optional
+        FE in the loop: after the search, the best design's whole device is inflated in 3D
+        FE (:func:`~multimorph.design.fe_checker`, kept in ``fe_folder``); where FE misses
+        a target, the targets are corrected by the model/FE ratio of that design and the
+        search runs again near it, at most ``fe_rounds`` times. ``None``: no device FE.
+    fe_mesh, fe_wall_elements, fe_max_steps
+        The device FE's mesh and its most continuation steps.
     stage : callable, optional
         ``stage(description)`` when a later step begins (robustness, FE check).
 
@@ -105,13 +126,36 @@ def run_design(target: TargetSpec, settings: DesignSettings, *,
     # one model, one batch shape for search, Monte Carlo and the final simulation
     model = CountingModel(model if model is not None else rom_batch_model(),
                           pad_to=settings.population * len(searched.stages))
-    if search_model is None:
-        result = design(target, model=model, settings=settings, progress=progress)
-    else:
-        fast = CountingModel(search_model, pad_to=settings.population * len(searched.stages))
-        result = mapped_design(target, search_model=fast, check=model_checker(model),
-                               settings=settings, rounds=rounds, progress=progress,
-                               boxes=fast.support_boxes())
+    wanted = target if searched is not target else None
+    fast = (CountingModel(search_model, pad_to=settings.population * len(searched.stages))
+            if search_model is not None else None)
+
+    def search(x0: Any = None, correction: Any = None, tag: str = "") -> DesignResult:
+        tell = progress
+        if tag and progress is not None:
+            def tell(done: int, total: int, phase: str) -> None:
+                progress(done, total, f"{tag}{phase}")
+        plain = replace(settings, graded=False)       # ``searched`` holds the parts
+        radius = None if x0 is None else FE_RADIUS
+        if fast is None:
+            return design(searched, model=model, settings=plain, progress=tell, x0=x0,
+                          radius=radius, correction=correction)
+        return mapped_design(searched, search_model=fast,
+                             check=model_checker(model, correction), settings=plain,
+                             rounds=rounds, progress=tell, boxes=fast.support_boxes(), x0=x0,
+                             radius=FE_RADIUS if x0 is not None else 0.15,
+                             correction=correction)
+
+    result = search()
+    fe_records: list[Any] = []
+    if fe_rounds is not None and result.best is not None:
+        result = _fe_loop(searched, result, search, fe_rounds=fe_rounds, model=model,
+                          folder=Path(fe_folder) if fe_folder is not None else Path(
+                              "multimorph-out") / "fe-rounds",
+                          mesh=fe_mesh, wall_elements=fe_wall_elements,
+                          max_steps=fe_max_steps, stage=stage,
+                          records=fe_records)
+    result = replace(result, target=searched, wanted=wanted)
     target = result.target            # the searched stages (graded parts included)
     best = result.best
     report = None
@@ -134,6 +178,49 @@ def run_design(target: TargetSpec, settings: DesignSettings, *,
             stage("FE verification of the best design…")
         verification = verify_fe(target, best)
     return DesignRun(result, report, device_result, sequence, error, verification)
+
+
+#: Trust region (unit coordinates) of a search that corrects an FE-checked design.
+FE_RADIUS = 0.1
+
+
+def _fe_loop(searched: TargetSpec, result: DesignResult, search: Callable[..., DesignResult],
+             *, fe_rounds: int, model: Any, folder: Path, mesh: str,
+             wall_elements: int | None, stage: Callable[[str], None] | None,
+             records: list[Any], max_steps: int = 400) -> DesignResult:
+    """FE in the loop: device FE of the best design; where it misses, the model corrected
+    by the FE/model ratio of the best FE-checked design and the search run again near it."""
+    check = fe_checker(folder, mesh=mesh, wall_elements=wall_elements, max_steps=max_steps,
+                       progress=(lambda text: stage(text)) if stage is not None else None,
+                       records=records)
+    pmax = searched.constraints.max_pressure
+    rounds: list[MappingRound] = []
+    best_fe: tuple[Evaluation, Evaluation] | None = None    # (model, FE) of the best so far
+    correction = None
+    for k in range(fe_rounds + 1):
+        t0 = time.perf_counter()
+        if k > 0:
+            assert best_fe is not None
+            result = search(x0=best_fe[1].candidate.x, correction=correction,
+                            tag=f"FE round {k}: ")
+            if result.best is None:
+                break
+        mine = _rescore(searched, result.best)          # the model's own view, uncorrected
+        if stage is not None:
+            stage(f"FE round {k}: device FE of the best design…")
+        fe_ev = check(searched, [result.best])[0]
+        if best_fe is None or fe_ev.objective < best_fe[1].objective:
+            best_fe = (mine, fe_ev)
+        nxt = correction_factors(*best_fe, pmax)
+        rounds.append(MappingRound(k, searched, correction, mine, fe_ev, _flat(searched, nxt),
+                                   result.evaluations, time.perf_counter() - t0))
+        if best_fe[1].meets:
+            break
+        correction = nxt
+    assert best_fe is not None
+    others = [d for d in result.designs if d.candidate is not best_fe[0].candidate]
+    return replace(result, fe_rounds=tuple(rounds), fe_best=best_fe[1],
+                   designs=[best_fe[0], *others])
 
 
 def write_design_report(run: DesignRun, folder: Path, *, header: str) -> dict[str, Any]:
@@ -161,6 +248,9 @@ def write_design_report(run: DesignRun, folder: Path, *, header: str) -> dict[st
         robustness_figure(run.robustness, result.target).savefig(folder / "robustness.png",
                                                                  dpi=110)
         files.append("robustness.png")
+    if result.fe_rounds:
+        fe_figure(result).savefig(folder / "fe_verification.png", dpi=110)
+        files.append("fe_verification.png")
     convergence_figure(result).savefig(folder / "convergence.png", dpi=110)
     report["files"] = files
     write_json(folder / "report.json", report)

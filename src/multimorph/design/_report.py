@@ -214,9 +214,91 @@ def report_markdown(result: DesignResult, robust: RobustnessReport | None = None
                 L.append(f"| {stage.name} | {q} | {f(value['mean'])} | {f(value['std'])} | "
                          f"{f(value['p05'])} | {f(value['p95'])} | {value['missing']} |")
         L.append("")
+    if result.rounds:
+        L += ["## Model corrections (space mapping)", "",
+              "The search ran on the fast calibrated variant; each round's best designs were "
+              "scored by the calibrated model, and the next round searched on the fast "
+              "model corrected by the calibrated/fast ratio of the best one so far (Pc, Ph "
+              "and motion per stage), near it.", "",
+              "| round | stage | correction on Ph | fast model Ph | calibrated Ph | "
+              "calibrated meets |", "|---|---|---|---|---|---|"]
+        for rd in result.rounds:
+            for i, (want, s_, c_) in enumerate(zip(rd.wanted.stages, rd.search.stages,
+                                                   rd.check.stages, strict=True)):
+                f = "—" if rd.correction is None else f"× {rd.correction[i]['end_pressure']:.3f}"
+                L.append(f"| {rd.index} | {want.name} | {f} | "
+                         f"{_fmt_p(s_.end)} | {_fmt_p(c_.end)} | "
+                         f"{'yes' if rd.check.meets else 'no'} |")
+        L.append("")
+    if result.fe_rounds:
+        verdict = ("**FE-verified**: the device FE meets every target" if result.fe_verified
+                   else "**not FE-verified**: the device FE misses a target (below)")
+        L += ["## 3D FE verification of the device", "", verdict + ".", "",
+              "| FE round | stage | wanted Pc | model Pc | FE Pc | wanted Ph | model Ph | "
+              "FE Ph | wanted | model | FE |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+        for rd in result.fe_rounds:
+            for want, m_, f_ in zip(rd.wanted.stages, rd.search.stages, rd.check.stages,
+                                    strict=True):
+                L.append(f"| {rd.index} | {want.name} | {_fmt_p(want.start_pressure)} | "
+                         f"{_fmt_p(m_.start)} | {_fmt_p(f_.start)} | "
+                         f"{_fmt_p(want.end_pressure)} | {_fmt_p(m_.end)} | {_fmt_p(f_.end)} | "
+                         f"{_fmt_mag(want.kind, abs(want.magnitude))} | "
+                         f"{_fmt_mag(want.kind, m_.magnitude)} | "
+                         f"{_fmt_mag(want.kind, f_.magnitude)} |")
+        last = result.fe_rounds[-1]
+        if not last.check.meets and last.check.message:
+            L += ["", f"FE notes: {last.check.message}"]
+        L.append("")
     if verification is not None:
         L += ["## FE verification", "", "```", str(verification), "```", ""]
     return "\n".join(L)
+
+
+def fe_figure(result: DesignResult) -> Any:
+    """Model vs device FE per stage and FE round: Pc, Ph (kPa) and magnitude, with the
+    target and its tolerance band."""
+    import matplotlib.pyplot as plt
+
+    rounds = result.fe_rounds
+    stages = rounds[0].wanted.stages
+    tol = rounds[0].wanted.tolerance
+    fig, axes = plt.subplots(len(stages), 3, figsize=(10, 2.4 * len(stages)), squeeze=False)
+    x = np.arange(len(rounds))
+    for i, stage in enumerate(stages):
+        stretch = stage.kind == "stretch"
+        for j, (what, wanted, unit) in enumerate((
+                ("start", stage.start_pressure, "kPa"), ("end", stage.end_pressure, "kPa"),
+                ("magnitude", abs(stage.magnitude), "%" if stretch else "deg"))):
+            ax = axes[i, j]
+
+            def conv(v: float | None, _j: int = j, _st: bool = stretch) -> float:
+                if v is None:
+                    return float("nan")
+                if _j < 2:
+                    return v / 1e3
+                return v * 100 if _st else math.degrees(v)
+
+            model = [conv(getattr(rd.search.stages[i], what)) for rd in rounds]
+            fe = [conv(getattr(rd.check.stages[i], what)) for rd in rounds]
+            ax.plot(x, model, "o-", color="tab:blue", label="model (calibrated)")
+            ax.plot(x, fe, "s-", color="tab:red", label="3D FE")
+            if wanted is not None:
+                w = conv(wanted)
+                t = tol.magnitude if j == 2 else tol.pressure
+                ax.axhspan(w * (1 - t), w * (1 + t), color="0.85", zorder=0,
+                           label="target ± tolerance")
+                ax.axhline(w, color="k", lw=0.8)
+            label = {"start": "Pc", "end": "Ph", "magnitude": "motion at Ph"}[what]
+            ax.set_ylabel(f"{label} ({unit})")
+            ax.set_title(f"{stage.name} ({stage.kind}): {label}", fontsize=9)
+            ax.set_xticks(x)
+            ax.set_xlabel("FE round")
+            if i == 0 and j == 0:
+                ax.legend(fontsize=7)
+    fig.suptitle(f"{result.target.name}: model vs device FE per round "
+                 f"({'FE-verified' if result.fe_verified else 'not FE-verified'})")
+    fig.tight_layout()
+    return fig
 
 
 def sequence_figure(device_result: Any, target: Any) -> Any:

@@ -84,6 +84,9 @@ class SearchSpace:
     min_chamber: float = 1e-3
     boxes: Mapping[str, Any] | None = field(default=None, compare=False)
     """Calibrated support per cell kind (``"bending"``, ``"stretching"``): decode inside it."""
+    correction: tuple[Mapping[str, float], ...] | None = field(default=None, compare=False)
+    """Per stage, factors on the model's Pc, Ph and motion (see
+    :func:`~multimorph.design.evaluate_one`); ``None``: the model as it is."""
 
     @property
     def n_stages(self) -> int:
