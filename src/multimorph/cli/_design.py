@@ -90,7 +90,7 @@ def design_command(
         "--rounds", min=0, max=20,
         help="With --model calibrated: searches again on targets corrected by the "
              "calibrated/fast ratio of the best design, at most this many times (0: score "
-             "the search's designs only).")] = 3,
+             "the search's designs only).")] = 6,
 ) -> None:
     """Design a device whose predicted sequence of motions meets a target.
 

@@ -174,7 +174,7 @@ def model_checker(model: Any, correction: Correction | None = None) -> Checker:
 
 
 def mapped_design(target: TargetSpec, *, search_model: Any, check: Checker,
-                  settings: DesignSettings | None = None, rounds: int = 3,
+                  settings: DesignSettings | None = None, rounds: int = 6,
                   round_budget: float = 0.4, progress: Progress | None = None,
                   boxes: Any = None, radius: float = 0.15, checked: int = 8,
                   x0: Any = None, correction: Correction | None = None) -> DesignResult:

@@ -81,7 +81,7 @@ def run_design(target: TargetSpec, settings: DesignSettings, *,
                check_fe: bool = False,
                progress: Callable[[int, int, str], None] | None = None,
                stage: Callable[[str], None] | None = None,
-               search_model: BatchModel | None = None, rounds: int = 3,
+               search_model: BatchModel | None = None, rounds: int = 6,
                fe_rounds: int | None = None, fe_folder: Path | None = None,
                fe_mesh: str = "coarse", fe_wall_elements: int | None = None,
                fe_max_steps: int = 400) -> DesignRun:
