@@ -55,8 +55,12 @@ def test_narrow_bands_and_parallel_copies_are_kept():
     for name in ("target_jar_lifter.toml", "target_double_curvature.toml"):
         t = load(name)                                  # bands 1.25 and 1.24
         assert graded_target(t) is t
-    t = load("target_three_stage.toml")
-    assert [s.name for s in graded_target(t).stages] == ["extend", "curl-1", "curl-2", "turn"]
+    t = load("target_three_stage.toml")                # bands 1.22 and 1.22
+    assert graded_target(t) is t
+    wide = replace(t, stages=(t.stages[0], replace(t.stages[1], start_pressure=25e3,
+                                                   end_pressure=40e3), t.stages[2]))
+    assert [s.name for s in graded_target(wide).stages] == ["extend", "curl-1", "curl-2",
+                                                             "turn"]
     fingers = replace(load("target_gripper.toml").stages[0], start_pressure=10e3)
     t = replace(t, stages=(fingers,))
     assert graded_target(t) is t                        # count = 3: never split
