@@ -412,15 +412,15 @@ def design_cases() -> Iterator[Case]:
                f"{st0}.pressure")
     yield case("unknown-key", "pressure-and-band", 'pressure = "30 kPa"',
                'pressure = "30 kPa"\nband = ["10 kPa", "30 kPa"]', st0)
-    yield case("sign", "band-reversed", 'band = ["30 kPa", "50 kPa"]',
-               'band = ["50 kPa", "30 kPa"]', "band")
-    yield case("wrong-type", "band-one-value", 'band = ["30 kPa", "50 kPa"]',
+    yield case("sign", "band-reversed", 'band = ["30 kPa", "40 kPa"]',
+               'band = ["40 kPa", "30 kPa"]', "band")
+    yield case("wrong-type", "band-one-value", 'band = ["30 kPa", "40 kPa"]',
                'band = ["30 kPa"]', "band")
     yield case("sign", "count-zero", "count = 3 ", "count = 0 ", f"{st0}.count")
     yield case("wrong-type", "count-string", "count = 3 ", 'count = "3" ', f"{st0}.count")
     yield case("huge", "count-1e9", "count = 3 ", "count = 1000000000 ", f"{st0}.count")
     yield case("typo-key", "angel", ang, 'angel = "90 deg"\npressure', "angel")
-    yield case("geometry", "stages-out-of-order", 'band = ["30 kPa", "50 kPa"]',
+    yield case("geometry", "stages-out-of-order", 'band = ["30 kPa", "40 kPa"]',
                'band = ["10 kPa", "20 kPa"]', "twister")
     yield case("missing-key", "max-pressure", 'max_pressure = "60 kPa"\n', "", "max_pressure")
     yield case("sign", "max-pressure-zero", 'max_pressure = "60 kPa"', 'max_pressure = "0 kPa"',
@@ -431,7 +431,7 @@ def design_cases() -> Iterator[Case]:
                "constraints.materials[0]")
     yield case("missing-key", "materials-empty", 'materials = ["ecoflex-00-30", '
                '"ecoflex-00-50", "dragon-skin-fx-pro", "dragon-skin-10",\n             '
-               '"platsil-gel-10"]', "materials = []", "materials")
+               '"platsil-gel-10", "dragon-skin-20"]', "materials = []", "materials")
     yield case("sign", "inline-material-negative", 'materials = ["ecoflex-00-30", ',
                'materials = [{model = "gent", mu = "-50 kPa", jm = 20}, ',
                "constraints.materials[0]")

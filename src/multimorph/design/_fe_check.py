@@ -103,7 +103,7 @@ def _fingerprint(ev: Evaluation, options: dict[str, Any]) -> str:
 
 def fe_checker(folder: str | Path, *, mesh: str = "coarse",
                wall_elements: int | None = None, max_steps: int = 400,
-               max_volume_ratio: float = 25.0,
+               max_volume_ratio: float = 25.0, dx_max: float = 0.04,
                progress: Callable[[str], None] | None = None,
                records: list[dict[str, Any]] | None = None) -> Callable[..., list[Evaluation]]:
     """A checker (see :func:`~multimorph.design.mapped_design`) that runs the device FE of
@@ -114,10 +114,12 @@ def fe_checker(folder: str | Path, *, mesh: str = "coarse",
     folder : path
         Where each device's measurements (``<key>.json``) and resume points
         (``<key>.resume``) are kept.
-    mesh, wall_elements, max_steps, max_volume_ratio
+    mesh, wall_elements, max_steps, max_volume_ratio, dx_max
         FE settings (:class:`multimorph.fe.FESettings`); the path stops where a module's
         chambers reach 25 × their volume (as the FE data set's cells: well past every
-        hardening knee, before the slow creep of a fully ballooned chamber).
+        hardening knee, before the slow creep of a fully ballooned chamber). The arc-length
+        step may move a node 0.04 d (the default 0.01 d took 145 points, 20 min, for the
+        jar lifter's seal to reach its limit point at 51k DOF).
     progress : callable, optional
         ``progress(text)`` at the start and end of each FE run and every few points.
     records : list, optional
@@ -135,7 +137,7 @@ def fe_checker(folder: str | Path, *, mesh: str = "coarse",
         ev = evs[0]
         pmax = target.constraints.max_pressure
         kw: dict[str, Any] = {"mesh": mesh, "p_max": pmax, "max_steps": max_steps,
-                              "max_volume_ratio": max_volume_ratio}
+                              "max_volume_ratio": max_volume_ratio, "dx_max": dx_max}
         key = _fingerprint(ev, {**kw, "wall_elements": wall_elements})
         if wall_elements is not None:
             from dataclasses import replace as _replace
