@@ -109,7 +109,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--targets", default="",
                     help="comma-separated target names (default: every examples/target_*.toml)")
     ap.add_argument("--seeds", default="0,1,2,3,4")
-    ap.add_argument("--rounds", type=int, default=6)
+    ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--target", default=str(ROOT / "examples" / "target_gripper.toml"),
                     help="--model ritz: the target of the detailed run")
     ap.add_argument("--budget", type=int, default=None,

@@ -90,7 +90,8 @@ def design_command(
         "--rounds", min=0, max=20,
         help="With --model calibrated: searches again on targets corrected by the "
              "calibrated/fast ratio of the best design, at most this many times (0: score "
-             "the search's designs only).")] = 6,
+             "the search's designs only); then, if still missing, a compass search on the "
+             "calibrated model itself, one stage's cell at a time (at most 20 s).")] = 3,
 ) -> None:
     """Design a device whose predicted sequence of motions meets a target.
 

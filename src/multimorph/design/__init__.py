@@ -12,6 +12,7 @@ from multimorph.design._mapped import (
     correction_factors,
     mapped_design,
     model_checker,
+    polish_stages,
 )
 from multimorph.design._models import (
     ROM_BATCH_NAMES,
@@ -78,6 +79,7 @@ __all__ = [
     "mapped_design",
     "material_stderr",
     "model_checker",
+    "polish_stages",
     "robustness",
     "rom_batch_model",
     "run_design",

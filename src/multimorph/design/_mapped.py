@@ -39,7 +39,8 @@ from multimorph.design._optimise import (
 from multimorph.design._space import SearchSpace
 from multimorph.design._target import TargetSpec, graded_target
 
-__all__ = ["Checker", "MappingRound", "correction_factors", "mapped_design", "model_checker"]
+__all__ = ["Checker", "MappingRound", "correction_factors", "mapped_design", "model_checker",
+           "polish_stages"]
 
 #: ``check(target, evaluations) -> evaluations``: the same designs (candidates and cell
 #: counts) scored against ``target`` by the checking model.
@@ -174,10 +175,11 @@ def model_checker(model: Any, correction: Correction | None = None) -> Checker:
 
 
 def mapped_design(target: TargetSpec, *, search_model: Any, check: Checker,
-                  settings: DesignSettings | None = None, rounds: int = 6,
+                  settings: DesignSettings | None = None, rounds: int = 3,
                   round_budget: float = 0.4, progress: Progress | None = None,
                   boxes: Any = None, radius: float = 0.15, checked: int = 8,
-                  x0: Any = None, correction: Correction | None = None) -> DesignResult:
+                  x0: Any = None, correction: Correction | None = None,
+                  polish_model: Any = None, polish_seconds: float = 20.0) -> DesignResult:
     """Search on ``search_model``, check on ``check``, correct the model, search again.
 
     Parameters
@@ -206,6 +208,11 @@ def mapped_design(target: TargetSpec, *, search_model: Any, check: Checker,
         Start the first search from the design ``x0`` (within ``radius``) with this
         correction of the search model (a search that corrects an earlier design: FE in
         the loop).
+    polish_model, polish_seconds
+        When the rounds end without meeting the targets: a compass search directly on this
+        batch model (the checking model's own: e.g. the calibrated model) from the best
+        checked design, one stage at a time, worst stage first — each probe changes one
+        stage's cell, so it costs one cell — for at most ``polish_seconds``.
 
     Returns
     -------
@@ -273,6 +280,12 @@ def mapped_design(target: TargetSpec, *, search_model: Any, check: Checker,
             break
         correction, x0 = nxt, incumbent[1].candidate.x
     assert last is not None
+    if (polish_model is not None and incumbent is not None and not incumbent[1].meets
+            and polish_seconds > 0):
+        polished = polish_stages(searched, incumbent[1], polish_model, boxes=boxes,
+                                 seconds=polish_seconds, progress=progress)
+        if polished.objective < incumbent[1].objective:
+            checked_all.append(polished)
     if not checked_all:               # nothing searched: the refusal stands as it is
         return replace(last, target=searched, wanted=wanted_whole,
                        wall_time=time.perf_counter() - t0)
@@ -334,6 +347,63 @@ def _diverse(target: TargetSpec, pool: Sequence[Evaluation], k: int, search_mode
                            fixed_cells=[counts[i][r] for i in range(S)])
               for r, e in enumerate(evs)]
     return [pool[0], *joined][:k]
+
+
+def polish_stages(target: TargetSpec, start: Evaluation, model: Any, *, boxes: Any = None,
+                  seconds: float = 20.0, step: float = 0.04, min_step: float = 0.004,
+                  progress: Progress | None = None) -> Evaluation:
+    """Compass search on ``model`` itself from ``start``, one stage's cell at a time.
+
+    Stages are taken worst first (:func:`stage_score`); for each, the continuous
+    coordinates of its cell are probed ± ``step`` (one batched call of 2 × 8 cells; the
+    other stages keep their responses), the best improvement of the whole design's
+    objective is taken, else the step is halved, down to ``min_step``. Stops when the design
+    meets the targets or after ``seconds``.
+    """
+    import numpy as np
+
+    from multimorph.design._space import N_VARS
+
+    t_end = time.perf_counter() + seconds
+    space = SearchSpace(target, boxes=boxes)
+    pmax = target.constraints.max_pressure
+    best = start
+    S = len(target.stages)
+    order = sorted(range(S), key=lambda i: -stage_score(start, i))
+    cont = (0, 1, 2, 3, 4, 5, 6, 9)
+    for i in order:
+        if best.meets or time.perf_counter() > t_end:
+            break
+        if stage_score(best, i) <= 1e-9:
+            continue
+        h = step
+        while h >= min_step and time.perf_counter() < t_end and not best.meets:
+            x = np.asarray(best.candidate.x, float)
+            probes = []
+            for j in cont:
+                for sgn in (1.0, -1.0):
+                    z = x.copy()
+                    k = i * N_VARS + j
+                    z[k] = min(max(z[k] + sgn * h, 0.0), 1.0)
+                    if z[k] != x[k]:
+                        probes.append(z)
+            cands = [space.decode(z) for z in probes]
+            out = list(model([c.cells[i] for c in cands], pmax))
+            trial = []
+            for cand, r in zip(cands, out, strict=True):
+                resps = list(best.responses)
+                resps[i] = r
+                # cell counts chosen afresh from the model's motion per cell
+                trial.append(evaluate_one(target, cand, resps))
+            k = min(range(len(trial)), key=lambda m: trial[m].objective)
+            if trial[k].objective < best.objective - 1e-12:
+                best = trial[k]
+            else:
+                h *= 0.5
+        if progress is not None:
+            progress(0, 0, f"polish: stage {target.stages[i].name}, objective "
+                     f"{best.objective:.3g}")
+    return best
 
 
 def stage_score(ev: Evaluation, i: int) -> float:

@@ -81,7 +81,7 @@ def run_design(target: TargetSpec, settings: DesignSettings, *,
                check_fe: bool = False,
                progress: Callable[[int, int, str], None] | None = None,
                stage: Callable[[str], None] | None = None,
-               search_model: BatchModel | None = None, rounds: int = 6,
+               search_model: BatchModel | None = None, rounds: int = 3,
                fe_rounds: int | None = None, fe_folder: Path | None = None,
                fe_mesh: str = "coarse", fe_wall_elements: int | None = None,
                fe_max_steps: int = 400) -> DesignRun:
@@ -144,7 +144,8 @@ def run_design(target: TargetSpec, settings: DesignSettings, *,
                              check=model_checker(model, correction), settings=plain,
                              rounds=rounds, progress=tell, boxes=fast.support_boxes(), x0=x0,
                              radius=FE_RADIUS if x0 is not None else 0.15,
-                             correction=correction)
+                             correction=correction,
+                             polish_model=model if correction is None else None)
 
     result = search()
     fe_records: list[Any] = []
