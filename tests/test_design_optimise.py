@@ -95,12 +95,12 @@ def test_device_toml_round_trip_and_sequence():
     assert fingers.count == 3 and fingers.attach_to == "twister"
     res = simulate_device(dev, cell_model=standin_cell)
     assert res.sequence.order == ["fingers", "twister"]
-    for sr in r.best.stages:                            # same module predictions
+    for sr in r.best.stages:     # same module predictions, up to the file's 0.01 mm rounding
         pc, ph = res.sequence.windows[sr.name]
-        assert math.isclose(pc, sr.start, rel_tol=1e-9) and math.isclose(ph, sr.end, rel_tol=1e-9)
+        assert math.isclose(pc, sr.start, rel_tol=5e-3) and math.isclose(ph, sr.end, rel_tol=5e-3)
         m = res.strains[sr.name]
         assert math.isclose(abs(np.interp(ph, m.pressure, m.measure)), sr.magnitude,
-                            rel_tol=1e-6)
+                            rel_tol=5e-3)
     assert "Best design vs target" in report_markdown(r)
 
 

@@ -11,7 +11,7 @@ import numpy as np
 
 from multimorph.geometry import CellGeometry, TiltedCell
 
-__all__ = ["GROUP_NAMES", "Box", "cell_groups", "equivalent_jm"]
+__all__ = ["GROUP_NAMES", "LINEAR_GROUPS", "Box", "cell_groups", "equivalent_jm"]
 
 #: The groups of each cell kind, in input order (``mu_b/mu`` the bottom-to-wall modulus
 #: ratio, ``jm`` the wall's Gent Jm or its equivalent, ``tilt`` in rad).
@@ -21,7 +21,7 @@ GROUP_NAMES = {
     "twisting": ("ht/d", "ws/d", "df/d", "w/d", "h/d", "hb/d", "mu_b/mu", "jm", "tilt"),
 }
 #: Groups sampled and scaled logarithmically (the others linearly).
-_LINEAR = ("df/d", "tilt")
+LINEAR_GROUPS = ("df/d", "tilt")
 _SPEC_NAME = {"jm": "cell.material.jm"}
 
 
@@ -86,7 +86,7 @@ class Box:
         v = np.atleast_2d(np.asarray(values, float))
         out = np.empty_like(v)
         for j, n in enumerate(self.names):
-            if n in _LINEAR:
+            if n in LINEAR_GROUPS:
                 out[:, j] = (v[:, j] - self.low[j]) / (self.high[j] - self.low[j])
             else:
                 out[:, j] = (np.log(v[:, j]) - math.log(self.low[j])) / (

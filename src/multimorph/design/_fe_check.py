@@ -6,7 +6,8 @@ device FE of :func:`multimorph.fe.simulate_device`), inflates it to the target's
 pressure, and measures each stage's module: Pc and Ph on the module's own signal, its
 motion at Ph (bend angle in the module frame, twist angle, or axial stretch − 1) and its
 peak stretch at the top. The scores use the same rules as the model's
-(:func:`~multimorph.design.score_measured`).
+(:func:`~multimorph.design.score_measured`). The device is the one its ``device.toml``
+describes (lengths rounded to 0.01 mm).
 
 Resumable: each device's run is keyed by a fingerprint of its layout, the FE settings and
 the code version. Its converged points are saved as they come (a killed run resumes from
@@ -29,7 +30,7 @@ from multimorph.design._evaluate import Evaluation, Measured, score_measured
 from multimorph.design._target import TargetSpec
 from multimorph.errors import MultimorphError
 
-__all__ = ["fe_checker", "fe_measure"]
+__all__ = ["as_written", "fe_checker", "fe_measure"]
 
 FE_CHECK_FORMAT = "multimorph-fe-check/1"
 
@@ -87,6 +88,17 @@ def _score(target: TargetSpec, ev: Evaluation, rows: Sequence[dict[str, Any]]) -
     measured = [Measured(r["start"], r["end"], r["magnitude"], int(r["n_cells"]),
                          r["safety_factor"], r["peak_stretch"]) for r in rows]
     return score_measured(target, ev.candidate, measured, device=ev.device)
+
+
+def as_written(ev: Evaluation) -> Any:
+    """The design's device as its ``device.toml`` gives it (lengths rounded to 0.01 mm):
+    what the FE checks is what a user builds."""
+    import tomllib
+
+    from multimorph.design._report import device_toml
+    from multimorph.device import device_from_spec
+
+    return device_from_spec(tomllib.loads(device_toml(ev.device, header="")))
 
 
 def _fingerprint(ev: Evaluation, options: dict[str, Any]) -> str:
@@ -167,7 +179,8 @@ def fe_checker(folder: str | Path, *, mesh: str = "coarse",
                          f"{time.perf_counter() - t0:.0f} s")
 
         ckpt = PathCheckpoint(folder / f"{key}.resume", key)
-        result = simulate_device(ev.device, FESettings(**kw), progress=tick, checkpoint=ckpt)
+        result = simulate_device(as_written(ev), FESettings(**kw), progress=tick,
+                                 checkpoint=ckpt)
         rows = fe_measure(target, ev, result)
         saved = {"format": FE_CHECK_FORMAT, "key": key, "settings": kw,
                  "wall_time_s": time.perf_counter() - t0, "points": len(result.pressure),

@@ -33,14 +33,14 @@ from multimorph.design._optimise import (
     DesignResult,
     DesignSettings,
     Progress,
-    _explain,
     design,
+    explain_design,
 )
 from multimorph.design._space import SearchSpace
 from multimorph.design._target import TargetSpec, graded_target
 
-__all__ = ["Checker", "MappingRound", "correction_factors", "mapped_design", "model_checker",
-           "polish_stages"]
+__all__ = ["Checker", "MappingRound", "correction_factors", "flat_factors", "mapped_design",
+           "model_checker", "polish_stages", "rescore"]
 
 #: ``check(target, evaluations) -> evaluations``: the same designs (candidates and cell
 #: counts) scored against ``target`` by the checking model.
@@ -144,7 +144,7 @@ def correction_factors(search: Evaluation, check: Evaluation, p_max: float,
     return tuple(out)
 
 
-def _flat(wanted: TargetSpec, correction: Correction) -> dict[str, float]:
+def flat_factors(wanted: TargetSpec, correction: Correction) -> dict[str, float]:
     return {f"{stage.name}.{q}": f[q] for stage, f in zip(wanted.stages, correction,
                                                          strict=True) for q in QUANTITIES}
 
@@ -263,14 +263,14 @@ def mapped_design(target: TargetSpec, *, search_model: Any, check: Checker,
             scored += check(searched, [joined])
         checked_all.extend(scored)
         j = min(range(len(scored)), key=lambda i: scored[i].objective)
-        raw = _rescore(searched, cands[j])
+        raw = rescore(searched, cands[j])
         if incumbent is None or scored[j].objective < incumbent[1].objective:
             incumbent = (raw, scored[j])
         # the next correction: check/search at the best checked design so far, near which
         # the next round searches
         nxt = correction_factors(*incumbent, pmax)
         records.append(MappingRound(k, searched, correction, raw, scored[j],
-                                    _flat(searched, nxt), res.evaluations,
+                                    flat_factors(searched, nxt), res.evaluations,
                                     time.perf_counter() - t1))
         if progress is not None:
             progress(evaluations, evaluations, f"round {k} checked: "
@@ -299,7 +299,7 @@ def mapped_design(target: TargetSpec, *, search_model: Any, check: Checker,
     ranked = ranked[:settings.top]
     best = ranked[0]
     space = SearchSpace(searched, boxes=boxes)
-    explanation = [] if best.meets else _explain(space, best)
+    explanation = [] if best.meets else explain_design(space, best)
     return DesignResult(searched, settings, bool(best.meets), ranked, explanation,
                         last.reachable, evaluations, calls, history,
                         time.perf_counter() - t0, {}, last.gradient_steps,
@@ -450,7 +450,7 @@ def _join_stages(target: TargetSpec, cands: Sequence[Evaluation],
                         fixed_cells=[cands[k].stages[i].n_cells for i, k in enumerate(picks)])
 
 
-def _rescore(target: TargetSpec, ev: Evaluation) -> Evaluation:
+def rescore(target: TargetSpec, ev: Evaluation) -> Evaluation:
     """A model evaluation scored against ``target`` with its own cell counts, uncorrected."""
     return evaluate_one(target, ev.candidate, ev.responses,
                         fixed_cells=[s.n_cells for s in ev.stages])

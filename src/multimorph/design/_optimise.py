@@ -34,7 +34,7 @@ from multimorph.design._space import N_VARS, VAR_NAMES, SearchSpace
 from multimorph.design._target import GRADED_RATIO, TargetSpec, graded_target
 from multimorph.errors import SpecError
 
-__all__ = ["DesignResult", "DesignSettings", "design", "evaluate_population"]
+__all__ = ["DesignResult", "DesignSettings", "design", "evaluate_population", "explain_design"]
 
 Progress = Callable[[int, int, str], None]
 
@@ -394,7 +394,7 @@ def _binding(space: SearchSpace, ev: Evaluation) -> list[str]:
     return out
 
 
-def _explain(space: SearchSpace, ev: Evaluation) -> list[str]:
+def explain_design(space: SearchSpace, ev: Evaluation) -> list[str]:
     t = space.target
     out: list[str] = []
     if ev.message:
@@ -613,7 +613,7 @@ def design(target: TargetSpec, *, model: BatchModel | None = None,
     top = top[:settings.top]
     best = top[0]
     feasible = bool(best.meets)
-    explanation = [] if feasible else _explain(space, best)
+    explanation = [] if feasible else explain_design(space, best)
     return DesignResult(target, settings, feasible, top, explanation, reach, counted.evaluations,
                         counted.calls, history, time.perf_counter() - t0, robust_scores,
                         tuple(steps), wanted=wanted)

@@ -21,11 +21,11 @@ from multimorph.design._evaluate import Evaluation
 from multimorph.design._fe_check import fe_checker
 from multimorph.design._mapped import (
     MappingRound,
-    _flat,
-    _rescore,
     correction_factors,
+    flat_factors,
     mapped_design,
     model_checker,
+    rescore,
 )
 from multimorph.design._models import BatchModel, CountingModel, rom_batch_model, single_cell
 from multimorph.design._optimise import DesignResult, DesignSettings, design
@@ -206,15 +206,16 @@ def _fe_loop(searched: TargetSpec, result: DesignResult, search: Callable[..., D
                             tag=f"FE round {k}: ")
             if result.best is None:
                 break
-        mine = _rescore(searched, result.best)          # the model's own view, uncorrected
+        mine = rescore(searched, result.best)          # the model's own view, uncorrected
         if stage is not None:
             stage(f"FE round {k}: device FE of the best design…")
         fe_ev = check(searched, [result.best])[0]
         if best_fe is None or fe_ev.objective < best_fe[1].objective:
             best_fe = (mine, fe_ev)
         nxt = correction_factors(*best_fe, pmax)
-        rounds.append(MappingRound(k, searched, correction, mine, fe_ev, _flat(searched, nxt),
-                                   result.evaluations, time.perf_counter() - t0))
+        rounds.append(MappingRound(k, searched, correction, mine, fe_ev,
+                                   flat_factors(searched, nxt), result.evaluations,
+                                   time.perf_counter() - t0))
         if best_fe[1].meets:
             break
         correction = nxt

@@ -195,7 +195,7 @@ def _decode_in_box(u: np.ndarray, box: Any, space: SearchSpace, sym: bool,
                    ) -> tuple[CellGeometry, tuple[int, int]] | None:
     """One stage's cell with its groups inside ``box`` (``None``: the box and the
     constraints leave no cell length, then the plain decoding is used)."""
-    from multimorph.calibrated._box import _LINEAR, equivalent_jm
+    from multimorph.calibrated._box import LINEAR_GROUPS, equivalent_jm
 
     c = space.target.constraints
     mats = c.materials
@@ -228,7 +228,7 @@ def _decode_in_box(u: np.ndarray, box: Any, space: SearchSpace, sym: bool,
 
     def pick(k: int, name: str, lo: float, hi: float) -> float:
         return _interval(float(u[k]), max(lo_g[name], lo), min(hi_g[name], hi),
-                         name not in _LINEAR)
+                         name not in LINEAR_GROUPS)
 
     w = pick(1, "w/d", 2 * t + mc, c.max_width / d)
     ws = pick(5, "ws/d", t, 0.5 * (w - mc))
