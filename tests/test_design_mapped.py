@@ -193,3 +193,29 @@ def test_polish_on_the_accurate_model_improves_one_stage_at_a_time():
     # the result is what the accurate model says of its cells (independent recomputation)
     [again] = model_checker(ACCURATE)(t, [out])
     assert again.objective == pytest.approx(out.objective, rel=1e-9)
+
+
+def test_a_path_that_stopped_early_is_not_read_as_stiffer():
+    """A missing Pc/Ph is 'beyond max_pressure' only where the checking path got there: a
+    device FE that stalled at a limit point (the jar lifter's seal, 100.5 kPa of 180) says
+    nothing about the pressures above it, and its stage is not corrected as stiffer."""
+    from dataclasses import replace as _replace
+
+    from multimorph.design import StageResult
+    from multimorph.design._mapped import BEYOND
+
+    t = load("target_jar_lifter.toml")
+    pmax = t.constraints.max_pressure
+    s = StageResult("sealer", "stretch", 115e3, 120e3, 0.99, 1, None, None, None,
+                    traced_to=pmax)
+    c = StageResult("sealer", "stretch", None, None, 0.93, 1, None, None, None,
+                    traced_to=100.5e3)
+
+    class Ev:                                # the two fields correction_factors reads
+        def __init__(self, st):
+            self.stages = (st,)
+
+    [f] = correction_factors(Ev(s), Ev(c), pmax)
+    assert f["start_pressure"] == 1.0 and f["end_pressure"] == 1.0     # unknown: no change
+    [g] = correction_factors(Ev(s), Ev(_replace(c, traced_to=pmax)), pmax)
+    assert g["end_pressure"] == pytest.approx(BEYOND * pmax / 120e3)   # reached: stiffer

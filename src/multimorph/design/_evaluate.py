@@ -64,13 +64,17 @@ class StageResult:
     magnitude_at_max: float | None = None
     """The motion at the maximum pressure: how far the stage keeps moving after it has
     'completed' at Ph (strain hardening slows a module down; it does not stop it)."""
+    traced_to: float | None = None
+    """The highest pressure the model's path reached (Pa): a Pc or Ph above it is unknown,
+    not absent."""
 
     def to_dict(self) -> dict[str, Any]:
         return {"name": self.name, "kind": self.kind, "start_pressure": self.start,
                 "end_pressure": self.end, "magnitude": self.magnitude, "cells": self.n_cells,
                 "safety_factor": self.safety_factor, "peak_stretch": self.peak_stretch,
                 "failure_pressure": self.failure, "relative_errors": dict(self.errors),
-                "magnitude_at_max_pressure": self.magnitude_at_max}
+                "magnitude_at_max_pressure": self.magnitude_at_max,
+                "traced_to_pressure": self.traced_to}
 
 
 @dataclass(frozen=True, eq=False)
@@ -170,7 +174,8 @@ def evaluate_one(target: TargetSpec, cand: Candidate, resps: Sequence[Any],
         sf = (min(brk) / peak) if (brk and peak) else None
         per_module = n if stage.kind != "stretch" else 1
         at_max = _interp(p, signal, pmax) * per_module * f_mag if len(p) else None
-        measured.append(Measured(pc, ph, mag, n, sf, peak, ch.failure, at_max))
+        measured.append(Measured(pc, ph, mag, n, sf, peak, ch.failure, at_max,
+                                 traced_to=float(np.max(lp)) if lp.size else None))
     return score_measured(target, cand, measured, responses=tuple(resps))
 
 
@@ -190,6 +195,8 @@ class Measured:
     magnitude_at_max: float | None = None
     failed: str | None = None
     """Why the model gave nothing for this stage (``None``: it did)."""
+    traced_to: float | None = None
+    """The highest pressure the model's path reached (Pa)."""
 
 
 def score_measured(target: TargetSpec, cand: Candidate, measured: Sequence[Measured], *,
@@ -246,7 +253,7 @@ def score_measured(target: TargetSpec, cand: Candidate, measured: Sequence[Measu
                                                    / con.min_safety_factor)
         stages.append(StageResult(stage.name, stage.kind, pc, ph, m.magnitude, m.n_cells,
                                   m.safety_factor, m.peak_stretch, m.failure, errs,
-                                  m.magnitude_at_max))
+                                  m.magnitude_at_max, m.traced_to))
     # sequence constraints between consecutive stages
     pmax = con.max_pressure
     for a, b in itertools.pairwise(stages):

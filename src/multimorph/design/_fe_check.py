@@ -86,7 +86,8 @@ def fe_measure(target: TargetSpec, ev: Evaluation, result: Any) -> list[dict[str
 
 def _score(target: TargetSpec, ev: Evaluation, rows: Sequence[dict[str, Any]]) -> Evaluation:
     measured = [Measured(r["start"], r["end"], r["magnitude"], int(r["n_cells"]),
-                         r["safety_factor"], r["peak_stretch"]) for r in rows]
+                         r["safety_factor"], r["peak_stretch"],
+                         traced_to=r.get("top_pressure")) for r in rows]
     return score_measured(target, ev.candidate, measured, device=ev.device)
 
 

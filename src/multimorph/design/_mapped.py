@@ -116,7 +116,8 @@ def correction_factors(search: Evaluation, check: Evaluation, p_max: float,
                        ) -> Correction:
     """Per stage, the check/search ratio of Pc, Ph and motion of one design (clipped to
     :data:`FACTOR_RANGE`). A pressure one model does not reach below ``p_max`` (while that
-    model's stage also moves less: it is stiffer) is taken at :data:`BEYOND` × ``p_max``;
+    model's stage also moves less: it is stiffer, and its path did reach ``p_max``: a path
+    that stopped early says nothing above it) is taken at :data:`BEYOND` × ``p_max``;
     where the ratio is not known, the stage's other pressure ratio is used (both move
     with the cell's stiffness), else 1."""
     out = []
@@ -126,10 +127,14 @@ def correction_factors(search: Evaluation, check: Evaluation, p_max: float,
         # less there (it is stiffer); a stage that moves as much or more without a knee
         # says nothing about the ratio
         stiffer = c.magnitude < s.magnitude
+        # a path that stopped below max_pressure (an FE run that stalled, a model whose
+        # support ends) says nothing about what lies above it
+        c_whole = c.traced_to is None or c.traced_to >= 0.98 * p_max
+        s_whole = s.traced_to is None or s.traced_to >= 0.98 * p_max
         for q, sv, cv in (("start_pressure", s.start, c.start),
                           ("end_pressure", s.end, c.end)):
-            if (sv is None and cv is None) or (cv is None and not stiffer) or (
-                    sv is None and stiffer):
+            if (sv is None and cv is None) or (cv is None and (not stiffer or not c_whole)) or (
+                    sv is None and (stiffer or not s_whole)):
                 raw[q] = None
             else:
                 raw[q] = _ratio(BEYOND * p_max if cv is None else cv,
