@@ -219,3 +219,20 @@ def test_a_path_that_stopped_early_is_not_read_as_stiffer():
     assert f["start_pressure"] == 1.0 and f["end_pressure"] == 1.0     # unknown: no change
     [g] = correction_factors(Ev(s), Ev(_replace(c, traced_to=pmax)), pmax)
     assert g["end_pressure"] == pytest.approx(BEYOND * pmax / 120e3)   # reached: stiffer
+
+
+def test_a_softer_checking_model_is_reached_by_tracing_further():
+    """When the checking model is softer (factors < 1), the search model is traced beyond
+    max_pressure (SearchSpace.model_pmax), so designs whose own Ph lies above it — the ones
+    that meet the targets once corrected — can be found."""
+    soft = batched(lambda cell, p_max: _scaled(standin_cell(cell, p_max / 0.8), 0.8, p_max))
+    t = load("target_jar_lifter.toml")
+    settings = DesignSettings(budget=900, population=16, seed=3, graded=False)
+    r = mapped_design(t, search_model=STANDIN, check=model_checker(soft), settings=settings,
+                      rounds=4)
+    assert r.feasible, r.explanation
+    pmax = t.constraints.max_pressure
+    best = r.best
+    # the stand-in's own completion pressure of the lifter is above max_pressure
+    _, ph = _standin(best.candidate.cells[1])
+    assert ph > pmax and 0.8 * ph == pytest.approx(best.stages[1].end, rel=1e-9)

@@ -153,27 +153,31 @@ def evaluate_one(target: TargetSpec, cand: Candidate, resps: Sequence[Any],
             measured.append(Measured(None, None, 0.0, n_fail, failed=f"model failed ({r})"))
             continue
         ch = r.characteristic
+        # the model's own pressure that the corrected max_pressure stands for (the model
+        # is traced that far: SearchSpace.model_pmax)
+        top = pmax / f_ph
         pc = ch.critical if ch.critical is not None and ch.critical <= pmax else None
-        ph = ch.hardening if ch.hardening is not None and ch.hardening <= pmax else None
+        ph = ch.hardening if ch.hardening is not None and ch.hardening <= top else None
         probe = build_device_module(target, cand, i, 1)
         p, signal = _stage_curve(probe, r)
-        at = ph if ph is not None else pmax
+        at = ph if ph is not None else top
         per_cell = _interp(p, signal, at) * f_mag
         if correction is not None:
             pc = None if ch.critical is None or ch.critical * f_pc > pmax else ch.critical * f_pc
-            ph = (None if ch.hardening is None or ch.hardening * f_ph > pmax
-                  else ch.hardening * f_ph)
+            ph = None if ph is None else ph * f_ph
+        elif ph is not None and ph > pmax:
+            ph = None
         max_cells = max(1, int(con.max_length // cell.length))
         n = (int(fixed_cells[i]) if fixed_cells is not None
              else cells_for(stage, per_cell, max_cells=max_cells))
         mag = per_cell * (n if stage.kind != "stretch" else 1)
         lp = np.asarray(r.loading.pressure, float)
-        peak = _interp(lp, np.asarray(r.loading.peak_stretch, float), pmax) if lp.size else None
+        peak = _interp(lp, np.asarray(r.loading.peak_stretch, float), top) if lp.size else None
         brk = [mm.break_stretch for mm in (cell.material, cell.bottom_material)
                if mm is not None and mm.break_stretch]
         sf = (min(brk) / peak) if (brk and peak) else None
         per_module = n if stage.kind != "stretch" else 1
-        at_max = _interp(p, signal, pmax) * per_module * f_mag if len(p) else None
+        at_max = _interp(p, signal, top) * per_module * f_mag if len(p) else None
         measured.append(Measured(pc, ph, mag, n, sf, peak, ch.failure, at_max,
                                  traced_to=float(np.max(lp)) if lp.size else None))
     return score_measured(target, cand, measured, responses=tuple(resps))

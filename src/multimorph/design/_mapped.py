@@ -170,7 +170,9 @@ def model_checker(model: Any, correction: Correction | None = None) -> Checker:
         cells = [c for e in evs for c in e.candidate.cells]
         if not cells:
             return []
-        out = list(model(cells, target.constraints.max_pressure))
+        from multimorph.design._space import trace_pmax
+
+        out = list(model(cells, trace_pmax(target.constraints.max_pressure, correction)))
         n = len(target.stages)
         return [evaluate_one(target, e.candidate, out[k * n:(k + 1) * n],
                              fixed_cells=[s.n_cells for s in e.stages], correction=correction)

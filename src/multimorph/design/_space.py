@@ -89,6 +89,13 @@ class SearchSpace:
     :func:`~multimorph.design.evaluate_one`); ``None``: the model as it is."""
 
     @property
+    def model_pmax(self) -> float:
+        """The pressure the model traces to: ``max_pressure``, or beyond it by the largest
+        downward correction of a pressure, so that a corrected Pc or Ph can still fall
+        below ``max_pressure`` (at most twice it)."""
+        return trace_pmax(self.target.constraints.max_pressure, self.correction)
+
+    @property
     def n_stages(self) -> int:
         return len(self.target.stages)
 
@@ -164,6 +171,15 @@ class SearchSpace:
                 ((material if bottom is None else bottom) + 0.5) / nm, 0.5]
         u[0] = 0.0 if stiff else 1.0
         return np.tile(u, self.n_stages)
+
+
+def trace_pmax(pmax: float, correction: Sequence[Mapping[str, float]] | None) -> float:
+    """``pmax`` over the smallest pressure factor of ``correction`` (≤ 1), at most 2 pmax."""
+    if not correction:
+        return pmax
+    low = min(min(f.get("start_pressure", 1.0), f.get("end_pressure", 1.0))
+              for f in correction)
+    return pmax / min(max(low, 0.5), 1.0)
 
 
 def _interval(u: float, lo: float, hi: float, log: bool) -> float:
