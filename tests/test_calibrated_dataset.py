@@ -84,8 +84,9 @@ def test_every_reference_spec_parses_and_covers_its_kind(name: str) -> None:
     assert spec.backend == "fe" and spec.kind == REFERENCE_SETS[name]
     table = spec.design_table()
     assert len(table.valid_indices) >= {"grid24": 24, "yeoh": 8, "bending_narrow": 40,
-                                        "stretching_narrow": 25}.get(name, 100)
-    if name.endswith("_narrow"):
+                                        "stretching_narrow": 25,
+                                        "bending_single": 40}.get(name, 100)
+    if name.endswith(("_narrow", "_single")):
         # a refinement set lies inside its kind's calibrated box (the main set's)
         from multimorph.calibrated._box import Box, cell_groups
 

@@ -41,7 +41,7 @@ __all__ = ["KIND_SETS", "MODEL_FILE", "TrainingData", "fe_training_data", "fit_a
 MODEL_FILE = DATA_DIR / "model.npz"
 MODEL_MANIFEST = DATA_DIR / "model.json"
 #: The calibration sets of each kind.
-KIND_SETS = {"bending": ("bending", "bending_narrow"),
+KIND_SETS = {"bending": ("bending", "bending_narrow", "bending_single"),
              "stretching": ("stretching", "stretching_narrow"), "twisting": ("twisting",)}
 #: A kind is fitted only with at least this many training designs per GP input (its
 #: groups and three Ritz features): with fewer, the linear means alone nearly interpolate

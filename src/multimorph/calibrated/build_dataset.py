@@ -30,8 +30,8 @@ from multimorph.calibrated._dataset import (
     write_reference,
 )
 
-ORDER = ("grid24", "yeoh", "bending_narrow", "stretching_narrow", "stretching", "twisting",
-         "bending")
+ORDER = ("grid24", "yeoh", "bending_narrow", "stretching_narrow", "bending_single",
+         "stretching", "twisting", "bending")
 
 
 def _log(msg: str) -> None:
