@@ -57,6 +57,7 @@ def test_design_writes_device_report_and_plots(app, tmp_path):
     assert res.sequence.order == ["fingers", "twister-1", "twister-2"]
     md = (out / "report.md").read_text()
     assert "Robustness (Monte Carlo)" in md and "Graded stages" in md
+    assert json.loads((out / "report.json").read_text())["model"] == "ritz"  # which model
     # same seed, same report (timings aside)
     r2 = run(app, wide, "--out", tmp_path / "g2", "--budget", 2400,
              "--population", 16, "--seed", 3, "--robustness", 24, "--json")

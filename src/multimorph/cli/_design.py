@@ -163,7 +163,7 @@ def design_command(
                   f"--budget {budget} --model {name}'" + ("" if result.feasible else
                                            "\nINFEASIBLE target: closest design only"))
         with atomic_output_dir(folder) as tmp:
-            report = write_design_report(run, tmp, header=header)
+            report = write_design_report(run, tmp, header=header, model=name)
         if as_json:
             emit_json({**report, "model": name, "out": str(folder)})
         else:

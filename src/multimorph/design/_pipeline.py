@@ -225,7 +225,8 @@ def _fe_loop(searched: TargetSpec, result: DesignResult, search: Callable[..., D
                    designs=[best_fe[0], *others])
 
 
-def write_design_report(run: DesignRun, folder: Path, *, header: str) -> dict[str, Any]:
+def write_design_report(run: DesignRun, folder: Path, *, header: str,
+                        model: str | None = None) -> dict[str, Any]:
     """Write a design run's files into ``folder``: ``device.toml`` (``closest_device.toml``
     when the target is infeasible), ``sequence.png``, ``robustness.png``,
     ``convergence.png``, ``report.json`` and ``report.md``.
@@ -237,6 +238,11 @@ def write_design_report(run: DesignRun, folder: Path, *, header: str) -> dict[st
     result, best = run.result, run.result.best
     report = report_dict(result, run.robustness, run.sequence, run.verification,
                          simulation_error=run.simulation_error)
+    if model is not None:
+        # which cell model gave the numbers (the FE ones are under "fe" / "fe_rounds")
+        report["model"] = model
+        if result.rounds:
+            report["search_model"] = "calibrated-fast"
     files = ["report.json", "report.md", "convergence.png"]
     if best is not None and best.device is not None:
         name = "device.toml" if result.feasible else "closest_device.toml"
