@@ -53,8 +53,12 @@ def device_toml(device: Device, *, header: str = "") -> str:
     for n, mm in inline.items():
         lines.append(f"[materials.{_q(n)}]")
         lines.append(f"model = {_q(mm.model)}")
+        units = dict(zip(mm.law.param_names, mm.law.param_units, strict=False))
         for k, v in mm.params.items():
-            lines.append(f"{k} = {float(v)!r}")
+            if units.get(k) == "Pa":            # moduli with their unit, in kPa
+                lines.append(f"{k} = {_q(f'{float(v) / 1e3:.6g} kPa')}")
+            else:
+                lines.append(f"{k} = {float(v)!r}")
         if mm.break_stretch:
             lines.append(f"break_stretch = {float(mm.break_stretch)!r}")
         lines.append("")
