@@ -99,8 +99,12 @@ def test_box_decoding_covers_the_box():
     hi = space.decode(np.ones(space.dim)).cells[0]
     g_lo, g_hi = cell_groups(lo), cell_groups(hi)
     assert g_lo["ht/d"] < g_hi["ht/d"] and g_lo["w/d"] < g_hi["w/d"]
-    assert math.isclose(g_hi["ht/d"], box.high[box.names.index("ht/d")], rel_tol=1e-6) or \
-        g_hi["ht/d"] < box.high[box.names.index("ht/d")]
+    # the lower corner is the low end of the group's interval: the box's bound or, where
+    # it binds, what two walls of min_wall and the least chamber need
+    j = box.names.index("w/d")
+    d = lo.length
+    need = (2 * t.constraints.min_wall + max(space.min_chamber, BOX_MIN_CHAMBER * d)) / d
+    assert math.isclose(g_lo["w/d"], max(box.low[j], need), rel_tol=1e-9)
 
 
 def test_trust_region_keeps_designs_near_x0():

@@ -330,7 +330,7 @@ def _diverse(target: TargetSpec, pool: Sequence[Evaluation], k: int, search_mode
     slices: list[list[np.ndarray]] = []
     counts: list[list[int]] = []
     for i in range(S):
-        ranked = sorted(range(len(pool)), key=lambda j, _i=i: stage_score(pool[j], _i))
+        ranked = sorted(range(len(pool)), key=lambda j, _i=i: stage_score(pool[j], _i, target))
         seen: set[bytes] = set()
         xs, ns = [], []
         for j in ranked:
@@ -376,12 +376,12 @@ def polish_stages(target: TargetSpec, start: Evaluation, model: Any, *, boxes: A
     pmax = target.constraints.max_pressure
     best = start
     S = len(target.stages)
-    order = sorted(range(S), key=lambda i: -stage_score(start, i))
+    order = sorted(range(S), key=lambda i: -stage_score(start, i, target))
     cont = (0, 1, 2, 3, 4, 5, 6, 9)
     for i in order:
         if best.meets or time.perf_counter() > t_end:
             break
-        if stage_score(best, i) <= 1e-9:
+        if stage_score(best, i, target) <= 1e-9:
             continue
         h = step
         while h >= min_step and time.perf_counter() < t_end and not best.meets:
@@ -413,7 +413,7 @@ def polish_stages(target: TargetSpec, start: Evaluation, model: Any, *, boxes: A
     return best
 
 
-def stage_score(ev: Evaluation, i: int) -> float:
+def stage_score(ev: Evaluation, i: int, target: TargetSpec) -> float:
     """How well stage ``i`` of a scored design meets its own targets: the squared distances
     of its quantities, its safety-factor violation, and the penalties for a pressure not
     reached (the objective's terms that belong to that stage alone)."""
@@ -424,7 +424,7 @@ def stage_score(ev: Evaluation, i: int) -> float:
     wanted_start = any(k == f"{name}.start_pressure" for k in ev.distances)
     f = sum(d * d for k, d in ev.distances.items() if k.split(".", 1)[0] == name)
     v = ev.violations.get(f"{name}.safety_factor", 0.0)
-    f += (4.0 * max(v, 0.0) / 0.1) ** 2
+    f += (4.0 * max(v, 0.0) / target.tolerance.pressure) ** 2   # as in the objective
     if sr.end is None:
         f += MISSING_PENALTY
     if sr.start is None and (wanted_start or i > 0):
@@ -444,7 +444,7 @@ def _join_stages(target: TargetSpec, cands: Sequence[Evaluation],
 
     if len(cands) < 2 or len(target.stages) < 2:
         return None
-    picks = [min(range(len(scored)), key=lambda k, _i=i: stage_score(scored[k], _i))
+    picks = [min(range(len(scored)), key=lambda k, _i=i: stage_score(scored[k], _i, target))
              for i in range(len(target.stages))]
     if len(set(picks)) == 1:
         return None
