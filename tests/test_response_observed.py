@@ -171,3 +171,18 @@ def test_a_shallow_fold_on_the_plateau_is_not_the_activation():
     big = _path(np.concatenate([P, fold_P]), np.concatenate([k, fold_k + 2.0 * s]),
                 stable=np.concatenate([np.ones(P.size, bool), np.cos(np.pi * s) <= 0]))
     assert characteristic_pressures(big).critical_kind == "limit_point"
+
+
+def test_a_cell_that_bends_the_other_way_activates_at_the_same_pressures():
+    """κ(P) = −tanh-like ballooning: the mirror of a positive bend has the same Pc and Ph
+    (read in the sense of the motion), not the tiny positive slope at its first points."""
+    P = np.linspace(0.0, 2.0, 401)
+    k = np.tanh(4.0 * (P - 1.0)) + np.tanh(4.0) + 0.01 * P   # inflection at P = 1
+    k_down = -k + 0.002 * np.sin(np.pi * P)                 # a wiggle up at small P first
+    up = characteristic_pressures(_path(P, k))
+    down = characteristic_pressures(_path(P, k_down))
+    assert up.critical == pytest.approx(1.0, abs=0.01)
+    assert down.critical == pytest.approx(up.critical, abs=0.01)
+    assert down.hardening == pytest.approx(up.hardening, rel=0.02)
+    # the reported curvatures keep their sign
+    assert down.curvature_at["critical"] < 0 < up.curvature_at["critical"]

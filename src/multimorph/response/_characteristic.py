@@ -27,6 +27,13 @@ Definitions (physics-notes §6; the same for every backend):
 
 Curvatures at each are interpolated on the loading curve (at a limit point: on the path).
 
+**The sense of the motion.** A cell may move against the sign convention (a bending cell
+whose bottom layer is not stiff enough bends the other way, κ < 0). The activation is read
+in the sense the signal actually moves: the signal is multiplied by the sign of its largest
+excursion on the loading curve before the slopes are taken (without this, the maximum of
+dκ/dP of a cell that bends to negative κ is the tiny positive slope at its first points,
+and its "Pc" a few per cent of its real activation pressure). The reported κ keep their sign.
+
 The signal is κ for bending (and twisting) cells. A mirror-symmetric stretching cell does not
 bend; its activation is read on the axial stretch instead (``signal="axial_stretch"``): the
 same definitions with λ in place of κ (κ at each pressure is still reported, zero there).
@@ -43,7 +50,7 @@ from multimorph.response._observed import observed_curves
 from multimorph.response._types import CharacteristicPressures, EquilibriumPath
 
 __all__ = ["SIGNALS", "SLOPE_DROP", "SNAP_FRACTION", "characteristic_pressures",
-           "critical_pressure", "hardening_pressure"]
+           "critical_pressure", "hardening_pressure", "motion_sense"]
 
 #: Path quantities the characteristic pressures can be read on.
 SIGNALS = ("curvature", "axial_stretch", "twist_rate")
@@ -187,6 +194,15 @@ def _failure(loading: EquilibriumPath, break_stretch: float | None,
     return float(P), float(k)
 
 
+def motion_sense(signal: np.ndarray) -> float:
+    """+1 or −1: the sign of the signal's largest excursion from zero (+1 for none)."""
+    k = np.asarray(signal, float)
+    k = k[np.isfinite(k)]
+    if k.size == 0:
+        return 1.0
+    return -1.0 if k[int(np.argmax(np.abs(k)))] < 0 else 1.0
+
+
 def characteristic_pressures(path: EquilibriumPath, *, loading: EquilibriumPath | None = None,
                              break_stretch: float | None = None,
                              signal: str = "curvature") -> CharacteristicPressures:
@@ -217,9 +233,14 @@ def characteristic_pressures(path: EquilibriumPath, *, loading: EquilibriumPath 
     if signal != "curvature":
         path = replace(path, curvature=np.asarray(getattr(path, signal), float))
         loading = replace(loading, curvature=np.asarray(getattr(loading, signal), float))
+    sense = motion_sense(loading.curvature)
+    if sense < 0:
+        path = replace(path, curvature=-np.asarray(path.curvature, float))
+        loading = replace(loading, curvature=-np.asarray(loading.curvature, float))
     pc, kind, kc = critical_pressure(path, loading)
     ph, kh = hardening_pressure(loading, pc)
     pf, kf = _failure(loading, break_stretch)
+    kc, kh, kf = (None if x is None else sense * x for x in (kc, kh, kf))
     if signal != "curvature":
         P, k = _monotone(real.pressure, real.curvature)
         kc, kh, kf = (None if x is None else float(np.interp(x, P, k)) for x in (pc, ph, pf))
