@@ -107,3 +107,49 @@ def test_equivalent_jm_is_gent_own_and_places_other_laws_by_their_hardening() ->
     assert jm < equivalent_jm(yeoh) < 1.5 * jm
     # neo-Hooke has no lock-up: its equivalent Jm is huge
     assert equivalent_jm(Material("neo-hooke", {"mu": 1e5})) > 500
+
+
+def _ballooning_path(pc: float, ph: float):
+    """A synthetic bending path: κ(P) rises fastest at P = pc and flattens by P ≈ ph."""
+    from multimorph.response import EquilibriumPath
+
+    P = np.linspace(0.0, 2.5 * pc, 400)
+    width = (ph - pc) / 1.6
+    k = np.tanh((P - pc) / width) + math.tanh(pc / width) + 0.02 * P / pc
+    n = len(P)
+    return EquilibriumPath(pressure=P, curvature=k, twist_rate=np.zeros(n),
+                           axial_stretch=np.ones(n), volume=1.0 + k, peak_stretch=1.0 + k,
+                           stable=np.ones(n, bool))
+
+
+@pytest.mark.parametrize("pc_t", [0.6, 0.8, 1.3, 1.9])
+def test_anchoring_places_the_paths_own_pc_on_the_anchor_and_keeps_its_shape(pc_t) -> None:
+    """Scaled onto the anchor, the path's Pc (read by the shared definitions) is the
+    anchor, its Ph/Pc is kept, and every quantity but the pressure is kept point by point."""
+    from multimorph.calibrated._anchor import anchored_path
+    from multimorph.response import characteristic_pressures
+
+    path = _ballooning_path(1.0, 1.25)
+    before = characteristic_pressures(path)
+    assert before.critical == pytest.approx(1.0, rel=0.01)
+    scaled, warp = anchored_path(path, signal="curvature", pc_target=pc_t)
+    assert warp.applied and warp.factor == pytest.approx(pc_t / before.critical)
+    after = characteristic_pressures(scaled)
+    assert after.critical == pytest.approx(pc_t, rel=1e-9)
+    assert after.hardening / after.critical == pytest.approx(
+        before.hardening / before.critical, rel=1e-9)
+    np.testing.assert_array_equal(scaled.curvature, path.curvature)
+    np.testing.assert_array_equal(scaled.volume, path.volume)
+
+
+def test_anchoring_leaves_a_path_without_pc_or_a_wild_anchor_alone() -> None:
+    from multimorph.calibrated._anchor import anchored_path
+
+    path = _ballooning_path(1.0, 1.25)
+    short = path.take(slice(0, 120))              # ends before its inflection: no Pc
+    same, warp = anchored_path(short, signal="curvature", pc_target=0.9)
+    assert same is short and not warp.applied
+    same, warp = anchored_path(path, signal="curvature", pc_target=5.0)
+    assert same is path and not warp.applied and "differ" in warp.reason
+    same, warp = anchored_path(path, signal="curvature", pc_target=None)
+    assert same is path and not warp.applied

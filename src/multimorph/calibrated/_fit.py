@@ -7,7 +7,14 @@ For each kind of cell (bending, stretching, tilted):
    carry the physics the Ritz model gets right — how stiff the cell is at small inflation;
 2. outputs: the FE path on the grid of chamber volumes (:mod:`._representation`);
 3. a multi-output GP (:mod:`._gp`) from inputs to outputs, trained on the designs of the
-   calibration split (the held-out 20 % and the 24-design grid are never seen).
+   calibration split (the held-out 20 % and the 24-design grid are never seen);
+4. two scalar GPs, each with its own kernel, from the same inputs to the FE's activation
+   and hardening pressures, log(Pc/μ) and log(Ph/μ) (the shared definitions of
+   :mod:`multimorph.response` read on the FE path): the *anchors*. Pc and Ph are
+   functionals of the whole curve (an inflection, a knee) that a path read back from grid
+   values places poorly; predicted on their own they are 2–3 times closer to FE, and the
+   model warps its predicted path in pressure so that the path's own Pc and Ph fall on them
+   (:func:`~._model.anchored_path`).
 
 The shipped model computes each cell's Ritz features with the Ritz model at run time (the
 cost of one batched Ritz trace). Optionally (``fit model --emulators``) they are emulated
@@ -35,8 +42,8 @@ from multimorph.calibrated._gp import MultiOutputGP, fit_gp
 from multimorph.calibrated._representation import QUANTITIES, T_GRID, grid_values
 from multimorph.calibrated._ritz import ritz_features
 
-__all__ = ["KIND_SETS", "MODEL_FILE", "TrainingData", "fe_training_data", "fit_and_save",
-           "model_inputs"]
+__all__ = ["ANCHORS", "KIND_SETS", "MODEL_FILE", "TrainingData", "fe_training_data",
+           "fit_anchors", "fit_and_save", "model_inputs"]
 
 MODEL_FILE = DATA_DIR / "model.npz"
 MODEL_MANIFEST = DATA_DIR / "model.json"
@@ -87,6 +94,8 @@ class TrainingData:
     holdout: np.ndarray
     cells: list[Any]
     paths: list[dict[str, np.ndarray]]
+    #: log(Pc/μ) and log(Ph/μ) of the FE path (n, 2); NaN where it has none
+    anchors: np.ndarray | None = None
 
 
 def fe_signal(kind: str, path: dict[str, np.ndarray], n_cells: int) -> np.ndarray:
@@ -107,8 +116,10 @@ def fe_training_data(kind: str, sets: dict[str, ReferenceSet] | None = None,
     sets = sets if sets is not None else load_reference()
     names = set_names or KIND_SETS[kind]
     box_names = GROUP_NAMES[kind]
+    from multimorph.calibrated._validate import fe_response
+
     rows: dict[str, list[Any]] = {k: [] for k in ("set", "design", "groups", "y", "mask",
-                                                   "holdout", "cell", "path")}
+                                                   "holdout", "cell", "path", "anchors")}
     for name in names:
         ref = sets.get(name)
         if ref is None:
@@ -132,18 +143,24 @@ def fe_training_data(kind: str, sets: dict[str, ReferenceSet] | None = None,
             rows["holdout"].append(bool(hold[r]))
             rows["cell"].append(cell)
             rows["path"].append(path)
+            ch = fe_response(path, cell, kind, n_cells).characteristic
+            rows["anchors"].append([finite_log((ch.critical or 0.0) / c.mu),
+                                    finite_log((ch.hardening or 0.0) / c.mu)])
     n = len(rows["set"])
     if ritz and n:
         _log(f"{kind}: {n} FE designs; computing their Ritz features")
         feats = ritz_features(rows["cell"])
     else:
         feats = np.full((n, 4), np.nan)
+    anchors = np.array(rows["anchors"], float).reshape(n, 2)
+    anchors[~np.isfinite(anchors)] = np.nan
     return TrainingData(
         kind=kind, set_name=np.array(rows["set"]), design=np.array(rows["design"]),
         groups=np.array(rows["groups"], float).reshape(n, len(box_names)), features=feats,
         y=np.array(rows["y"]).reshape(n, len(T_GRID), len(QUANTITIES[kind])),
         mask=np.array(rows["mask"], bool).reshape(n, len(T_GRID)),
-        holdout=np.array(rows["holdout"], bool), cells=rows["cell"], paths=rows["path"])
+        holdout=np.array(rows["holdout"], bool), cells=rows["cell"], paths=rows["path"],
+        anchors=anchors)
 
 
 def _tilts(data: TrainingData) -> np.ndarray | None:
@@ -172,6 +189,28 @@ def fit_kind(data: TrainingData, box: Box, *, train: np.ndarray | None = None,
     fit_out = np.array([j * nq + q for j in jj for q in (0, 1)])
     gp = fit_gp(x, y, mask, fit_outputs=fit_out, restarts=restarts)
     return gp, fmean, fstd
+
+
+#: The anchors: FE pressures predicted on their own (see the module docstring).
+ANCHORS = ("pc", "ph")
+
+
+def fit_anchors(data: TrainingData, box: Box, fmean: np.ndarray, fstd: np.ndarray, *,
+                train: np.ndarray | None = None, restarts: int = 3,
+                ) -> dict[str, MultiOutputGP]:
+    """One scalar GP per anchor (log Pc/μ, log Ph/μ of FE), each with its own kernel, on
+    the rows ``train`` (default: not held out) that have the anchor and finite features."""
+    assert data.anchors is not None
+    kf = kind_features(data.kind, data.features, _tilts(data))
+    ok = np.all(np.isfinite(kf), axis=1)
+    sel = (~data.holdout if train is None else train) & ok
+    out = {}
+    for j, name in enumerate(ANCHORS):
+        rows = sel & np.isfinite(data.anchors[:, j])
+        x = model_inputs(box, data.groups[rows], kf[rows], fmean, fstd)
+        y = data.anchors[rows, j:j + 1]
+        out[name] = fit_gp(x, y, np.ones_like(y, bool), restarts=restarts)
+    return out
 
 
 #: Outputs of a Ritz emulator: the four :data:`~._ritz.FEATURE_NAMES` and log(Pc/μ).
@@ -275,6 +314,9 @@ def _fit_one(kind: str, data: TrainingData, prefix: str, arrays: dict[str, np.nd
     gp, fmean, fstd = fit_kind(data, box)
     p = f"{prefix}{kind}/"
     arrays.update(gp.to_arrays(p))
+    anchors = fit_anchors(data, box, fmean, fstd, train=train)
+    for name, agp in anchors.items():
+        arrays.update(agp.to_arrays(f"{p}anchor_{name}/"))
     arrays[f"{p}feature_mean"] = fmean
     arrays[f"{p}feature_std"] = fstd
     arrays[f"{p}box_low"] = box.low
@@ -284,6 +326,9 @@ def _fit_one(kind: str, data: TrainingData, prefix: str, arrays: dict[str, np.nd
         "held_out": int(data.holdout.sum()), "length_scales": gp.length.round(4).tolist(),
         "noise": gp.noise, "groups": list(GROUP_NAMES[kind]),
         "features": "emulated" if prefix else "ritz",
+        "anchors": {name: {"training_designs": len(agp.x),
+                           "length_scales": agp.length.round(4).tolist(), "noise": agp.noise}
+                    for name, agp in anchors.items()},
         "box": {n: [float(lo), float(hi)] for n, lo, hi in
                 zip(box.names, box.low, box.high, strict=True)}}
     _log(f"{kind}{' (fast)' if prefix else ''}: fitted on {int(train.sum())} designs")

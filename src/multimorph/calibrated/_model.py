@@ -20,15 +20,17 @@ import json
 import math
 import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from multimorph.calibrated._anchor import anchored_characteristic
 from multimorph.calibrated._box import Box, cell_groups
 from multimorph.calibrated._fit import (
+    ANCHORS,
     FAMILY,
     MODEL_FILE,
     MODEL_MANIFEST,
@@ -67,6 +69,8 @@ class _Kind:
     box: Box
     fmean: np.ndarray
     fstd: np.ndarray
+    #: the anchor GPs (log Pc/μ, log Ph/μ of FE) by name; empty in an older model file
+    anchors: dict[str, MultiOutputGP]
 
 
 @dataclass(frozen=True, eq=False)
@@ -80,6 +84,9 @@ class GridPrediction:
     p_end: np.ndarray         # (n,): the last supported pressure (Pa; inf: no bound)
     inside: np.ndarray        # (n,) bool
     outside: list[dict[str, tuple[float, float, float]]]
+    #: anchors: predicted log(Pc/μ), log(Ph/μ) (n, 2) and their predictive std (NaN: none)
+    anchors: np.ndarray | None = None
+    anchor_std: np.ndarray | None = None
 
 
 class CalibratedModel:
@@ -99,9 +106,11 @@ class CalibratedModel:
                 p = f"{prefix}{kind}/"
                 box = Box(kind, tuple(info["groups"]), np.asarray(arrays[f"{p}box_low"]),
                           np.asarray(arrays[f"{p}box_high"]))
+                anchors = {name: MultiOutputGP.from_arrays(arrays, f"{p}anchor_{name}/")
+                           for name in ANCHORS if f"{p}anchor_{name}/x" in arrays}
                 into[kind] = _Kind(kind, MultiOutputGP.from_arrays(arrays, p), box,
                                    np.asarray(arrays[f"{p}feature_mean"]),
-                                   np.asarray(arrays[f"{p}feature_std"]))
+                                   np.asarray(arrays[f"{p}feature_std"]), anchors)
         self.emulators = {fam: MultiOutputGP.from_arrays(arrays, f"emulator/{fam}/")
                           for fam in manifest.get("emulators", {})}
         self.emulator_boxes = {}
@@ -204,7 +213,16 @@ class CalibratedModel:
         ok = best >= SUPPORT_CORRELATION
         last = np.where(ok.any(axis=1), J - 1 - np.argmax(ok[:, ::-1], axis=1), 0)
         t_end = T_GRID[last]
-        return GridPrediction(kind, values, std_log_p, t_end, p_end, inside, outside)
+        anchors = anchor_std = None
+        if k.anchors:
+            anchors = np.full((len(x), len(ANCHORS)), np.nan)
+            anchor_std = np.full_like(anchors, np.nan)
+            for j, name in enumerate(ANCHORS):
+                if name in k.anchors:
+                    m, sd = k.anchors[name].predict(x, std=True)
+                    anchors[:, j], anchor_std[:, j] = m[:, 0], sd[:, 0]
+        return GridPrediction(kind, values, std_log_p, t_end, p_end, inside, outside,
+                              anchors, anchor_std)
 
     # ------------------------------------------------------------------ responses
     def responses(self, cells: Sequence[CellGeometry | TiltedCell], p_max: float, *,
@@ -292,27 +310,36 @@ class CalibratedModel:
         c = cell.cell if isinstance(cell, TiltedCell) else cell
         t_end = float(pred.t_end[r])
         p_data = float(pred.p_end[r])
-        path, reached = _truncate(path, min(p_max, p_data))
-        reached = reached and p_max <= p_data
         signal = {"bending": "curvature", "stretching": "axial_stretch",
                   "twisting": "twist_rate"}[pred.kind]
         if pred.kind == "twisting":
-            from dataclasses import replace
-
             path = replace(path, twist_rate=np.asarray(path.extra["shear"]))
+        path, reached = _truncate(path, min(p_max, p_data))
+        reached = reached and p_max <= p_data
         resp = build_response(path, length=c.length, shear_modulus=c.mu, backend="calibrated",
                               break_stretch=c.material.break_stretch, signal=signal)
-        # the uncertainty of log P at the activation volume moves Pc (and Ph) by the same
-        # factor: a pressure scaled by f scales the whole κ(P) curve's pressures by f
+        # Pc and Ph: the anchors where the path reaches them (see ._anchor)
+        anchors: dict[str, Any] | None = None
+        if pred.anchors is not None:
+            pc_a, ph_a = (math.exp(v) * c.mu if math.isfinite(v) else None
+                          for v in pred.anchors[r])
+            char, anchors = anchored_characteristic(resp, pc_a, ph_a)
+            resp = replace(resp, characteristic=char)
         ch = resp.characteristic
         tt = path.extra["log_volume_ratio"]
         std = pred.std_log_p[r]
 
-        def band(pc: float | None) -> list[float | None]:
+        # the band: the anchor's predictive std, or (the path's own reading) the std of
+        # log P at the activation volume, which moves the whole κ(P) curve's pressures
+        def band(pc: float | None, j: int) -> list[float | None]:
             if pc is None:
                 return [None, None]
-            tc = float(np.interp(pc, np.maximum.accumulate(path.pressure), tt))
-            s = float(np.interp(tc, T_GRID, std))
+            used = anchors["used"] if anchors else []
+            if ("critical", "hardening")[j] in used and pred.anchor_std is not None:
+                s = float(pred.anchor_std[r, j])   # the anchor's own predictive std
+            else:
+                tc = float(np.interp(pc, np.maximum.accumulate(path.pressure), tt))
+                s = float(np.interp(tc, T_GRID, std))
             return [pc * math.exp(-s), pc * math.exp(s)]
 
         meta = {"model": "calibrated-fast" if fast else "calibrated", "points": len(path),
@@ -320,8 +347,9 @@ class CalibratedModel:
                     "inside": True, "kind": pred.kind, "outside": {},
                     "features": "emulated" if fast else "ritz",
                     "log_pressure_std": float(np.interp(min(1.0, t_end), T_GRID, std)),
-                    "critical_pressure_range": band(ch.critical),
-                    "hardening_pressure_range": band(ch.hardening),
+                    "critical_pressure_range": band(ch.critical, 0),
+                    "hardening_pressure_range": band(ch.hardening, 1),
+                    "anchors": anchors,
                     "volume_ratio_end": math.exp(float(tt[-1])),
                     "data_pressure_end": p_data if math.isfinite(p_data) else None,
                     "reached_p_max": reached,
@@ -334,8 +362,6 @@ def _straight_for_tilted(r: Response, cell: TiltedCell) -> Response:
     the same path, read on the strip shear of the Ritz rule γ = ε sin 2|β| (ε the
     mid-height strain along the chamber), kept as ``extra["shear"]`` as a calibrated
     tilted cell would give it (the twisting module reads it the same way)."""
-    from dataclasses import replace
-
     if not str(r.meta.get("model", "")).startswith("calibrated"):
         return r  # the Ritz fallback of a straight cell outside the box: as the Ritz model
     c = cell.cell
@@ -376,8 +402,6 @@ def _truncate(path: EquilibriumPath, p_max: float) -> tuple[EquilibriumPath, boo
         if a.ndim == 1 and len(a) == len(P[: j + 1]):
             a[-1] = a[-2] + f * (a[-1] - a[-2])
         extra[k] = a
-    from dataclasses import replace
-
     return replace(keep, **arrays, extra=extra), True
 
 

@@ -1,0 +1,92 @@
+"""Anchoring a predicted response on predicted characteristic pressures.
+
+The calibrated model predicts two things for a cell: its whole path (grid values, read
+back by monotone cubics) and, on their own, the FE's activation and hardening pressures
+Pc and Ph (the anchors, :data:`~._fit.ANCHORS`: scalar GPs trained on the Pc and Ph that
+the shared definitions of :mod:`multimorph.response` read on each FE path).
+
+Pc and Ph are functionals of a curve — the inflection of κ(P) or its limit point, the
+knee after it — and ill-conditioned ones: on a flat activation plateau two nearly equal
+slope maxima, or a 1 % wiggle, move the reading by tens of per cent while the curve itself
+stays within a few per cent of FE. Measured on held-out FE designs, the path's own reading
+of Pc was off by 20–100 % on a fifth of the bending cells whose curves were within 10 % of
+FE, while the anchor, a smooth function of the design, was within 5 % on most of them.
+Scaling the path onto the anchor fixed Pc but moved those good curves by the same factor
+(curves within 10 % of FE: 24 % → 5 %), and a pressure map that moves Ph as well bends
+κ(P) hardest just above Pc and makes a new knee there.
+
+So the path is kept as predicted, and the response reports the anchors as its Pc and Ph
+where its path reaches them (:func:`anchored_characteristic`); κ at each is read on the
+loading curve. The critical kind (limit point or steepest rise) is the path's own.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from multimorph.response import CharacteristicPressures, Response
+
+__all__ = ["MAX_FACTOR", "anchored_characteristic"]
+
+#: An anchor further than this factor from the path's own reading is not used (the anchor
+#: and the path disagree about what the cell does; the path's reading is kept and the
+#: disagreement reported).
+MAX_FACTOR = 2.0
+#: The reported Ph is at least this factor above the reported Pc.
+MIN_PH_OVER_PC = 1.0
+
+
+def _signal(resp: Response) -> tuple[np.ndarray, np.ndarray]:
+    """(P, κ) of the loading curve, pressures strictly increasing (for interpolation)."""
+    P = np.asarray(resp.loading.pressure, float)
+    k = np.asarray(resp.loading.curvature, float)
+    keep = np.concatenate([[True], np.diff(P) > 0])
+    return P[keep], k[keep]
+
+
+def _usable(anchor: float | None, own: float | None, top: float) -> bool:
+    if anchor is None or not math.isfinite(anchor) or anchor <= 0 or anchor > top:
+        return False
+    return own is None or abs(math.log(anchor / own)) <= math.log(MAX_FACTOR)
+
+
+def anchored_characteristic(resp: Response, pc: float | None, ph: float | None,
+                            ) -> tuple[CharacteristicPressures, dict[str, Any]]:
+    """The response's characteristic pressures with Pc and Ph replaced by the anchors
+    ``pc``, ``ph`` (Pa; ``None``: no anchor) where the loading curve reaches them, and a
+    record of what was done (JSON-able: the path's own readings and the anchors)."""
+    ch = resp.characteristic
+    P, k = _signal(resp)
+    top = float(P[-1]) if P.size else 0.0
+    info: dict[str, Any] = {"path_critical_pressure": ch.critical,
+                            "path_hardening_pressure": ch.hardening,
+                            "critical_pressure": pc, "hardening_pressure": ph,
+                            "used": []}
+    crit, hard = ch.critical, ch.hardening
+    # a path whose own reading finds no activation below its end, but that reaches the
+    # anchor, is taken at the anchor too: the reading failed, not the activation
+    if _usable(pc, ch.critical, top):
+        assert pc is not None
+        crit = pc
+        info["used"].append("critical")
+    if crit is not None and _usable(ph, ch.hardening, top):
+        assert ph is not None
+        hard = max(ph, MIN_PH_OVER_PC * crit)
+        info["used"].append("hardening")
+    elif hard is not None and crit is not None and hard < crit:
+        hard = crit
+    if not info["used"]:
+        return ch, info
+
+    def kappa(p: float | None) -> float | None:
+        return None if p is None or not P.size else float(np.interp(p, P, k))
+
+    kind = ch.critical_kind or ("max_slope" if crit is not None else None)
+    out = replace(ch, critical=crit, critical_kind=kind, hardening=hard,
+                  curvature_at={**ch.curvature_at, "critical": kappa(crit),
+                                "hardening": kappa(hard)})
+    return out, info
