@@ -122,34 +122,45 @@ def _ballooning_path(pc: float, ph: float):
                            stable=np.ones(n, bool))
 
 
-@pytest.mark.parametrize("pc_t", [0.6, 0.8, 1.3, 1.9])
-def test_anchoring_places_the_paths_own_pc_on_the_anchor_and_keeps_its_shape(pc_t) -> None:
-    """Scaled onto the anchor, the path's Pc (read by the shared definitions) is the
-    anchor, its Ph/Pc is kept, and every quantity but the pressure is kept point by point."""
-    from multimorph.calibrated._anchor import anchored_path
-    from multimorph.response import characteristic_pressures
+def _ballooning_response(pc: float, ph: float):
+    from multimorph.response import build_response
 
-    path = _ballooning_path(1.0, 1.25)
-    before = characteristic_pressures(path)
-    assert before.critical == pytest.approx(1.0, rel=0.01)
-    scaled, warp = anchored_path(path, signal="curvature", pc_target=pc_t)
-    assert warp.applied and warp.factor == pytest.approx(pc_t / before.critical)
-    after = characteristic_pressures(scaled)
-    assert after.critical == pytest.approx(pc_t, rel=1e-9)
-    assert after.hardening / after.critical == pytest.approx(
-        before.hardening / before.critical, rel=1e-9)
-    np.testing.assert_array_equal(scaled.curvature, path.curvature)
-    np.testing.assert_array_equal(scaled.volume, path.volume)
+    return build_response(_ballooning_path(pc, ph), length=0.02, shear_modulus=1.0,
+                          backend="calibrated")
 
 
-def test_anchoring_leaves_a_path_without_pc_or_a_wild_anchor_alone() -> None:
-    from multimorph.calibrated._anchor import anchored_path
+@pytest.mark.parametrize(("pc_a", "ph_a"), [(0.8, 0.9), (1.3, 1.6), (1.2, 1.1)])
+def test_anchors_become_pc_and_ph_and_leave_the_path_as_predicted(pc_a, ph_a) -> None:
+    """Where the loading curve reaches them, the anchors are the response's Pc and Ph
+    (Ph never below Pc), κ at each is read on the loading curve, and the path's own
+    readings are kept in the record."""
+    from multimorph.calibrated._anchor import anchored_characteristic
 
-    path = _ballooning_path(1.0, 1.25)
-    short = path.take(slice(0, 120))              # ends before its inflection: no Pc
-    same, warp = anchored_path(short, signal="curvature", pc_target=0.9)
-    assert same is short and not warp.applied
-    same, warp = anchored_path(path, signal="curvature", pc_target=5.0)
-    assert same is path and not warp.applied and "differ" in warp.reason
-    same, warp = anchored_path(path, signal="curvature", pc_target=None)
-    assert same is path and not warp.applied
+    resp = _ballooning_response(1.0, 1.25)
+    own = resp.characteristic
+    assert own.critical == pytest.approx(1.0, rel=0.01)
+    ch, info = anchored_characteristic(resp, pc_a, ph_a)
+    assert ch.critical == pc_a and ch.hardening == max(ph_a, pc_a)
+    assert info["used"] == ["critical", "hardening"]
+    assert info["path_critical_pressure"] == own.critical
+    k_at = np.interp(pc_a, resp.loading.pressure, resp.loading.curvature)
+    assert ch.curvature_at["critical"] == pytest.approx(k_at)
+    assert ch.critical_kind == own.critical_kind
+
+
+def test_an_anchor_beyond_the_path_or_far_from_its_reading_is_not_used() -> None:
+    from multimorph.calibrated._anchor import MAX_FACTOR, anchored_characteristic
+
+    resp = _ballooning_response(1.0, 1.25)
+    top = float(resp.loading.pressure[-1])
+    for pc_a in (1.05 * top, 1.1 * MAX_FACTOR, None, math.nan):
+        ch, info = anchored_characteristic(resp, pc_a, None)
+        assert ch is resp.characteristic and not info["used"]
+    # a path whose own reading finds no Pc but that reaches the anchor takes the anchor
+    short = _ballooning_response(1.0, 1.25)
+    from dataclasses import replace
+
+    short = replace(short, characteristic=replace(short.characteristic, critical=None,
+                                                  critical_kind=None, hardening=None))
+    ch, info = anchored_characteristic(short, 0.9, 1.0)
+    assert ch.critical == 0.9 and ch.hardening == 1.0 and ch.critical_kind == "max_slope"
