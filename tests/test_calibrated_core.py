@@ -140,7 +140,10 @@ def test_anchors_become_pc_and_ph_and_leave_the_path_as_predicted(pc_a, ph_a) ->
     own = resp.characteristic
     assert own.critical == pytest.approx(1.0, rel=0.01)
     ch, info = anchored_characteristic(resp, pc_a, ph_a)
-    assert ch.critical == pc_a and ch.hardening == max(ph_a, pc_a)
+    assert ch.critical == pc_a
+    # crossing anchors: Ph keeps the path's own Ph/Pc above the anchored Pc
+    ratio = own.hardening / own.critical if ph_a < pc_a else ph_a / pc_a
+    assert ch.hardening == pytest.approx(pc_a * ratio)
     assert info["used"] == ["critical", "hardening"]
     assert info["path_critical_pressure"] == own.critical
     k_at = np.interp(pc_a, resp.loading.pressure, resp.loading.curvature)

@@ -36,8 +36,6 @@ __all__ = ["MAX_FACTOR", "anchored_characteristic"]
 #: and the path disagree about what the cell does; the path's reading is kept and the
 #: disagreement reported).
 MAX_FACTOR = 2.0
-#: The reported Ph is at least this factor above the reported Pc.
-MIN_PH_OVER_PC = 1.0
 
 
 def _signal(resp: Response) -> tuple[np.ndarray, np.ndarray]:
@@ -75,7 +73,13 @@ def anchored_characteristic(resp: Response, pc: float | None, ph: float | None,
         info["used"].append("critical")
     if crit is not None and _usable(ph, ch.hardening, top):
         assert ph is not None
-        hard = max(ph, MIN_PH_OVER_PC * crit)
+        hard = ph
+        if hard < crit:
+            # the two anchors cross (both within their scatter of a narrow knee): Ph
+            # keeps the path's own Ph/Pc above the reported Pc
+            ratio = (ch.hardening / ch.critical if ch.hardening and ch.critical
+                     and ch.hardening > ch.critical else 1.0)
+            hard = min(crit * ratio, top)
         info["used"].append("hardening")
     elif hard is not None and crit is not None and hard < crit:
         hard = crit

@@ -103,7 +103,7 @@ def _device_markdown(d: dict[str, Any]) -> str:
              "Library silicones → unit cells → modules on one pressure line. Cell model: "
              + ", ".join(f"{n} {m}" for n, m in d["module_models"].items())
              + " (calibrated: the Ritz model corrected against 3D FE, held-out Pc error "
-               "median 5.5 % on bending cells, 3.8 % on stretching cells (docs/validation.md); "
+               "median 4.9 % on bending cells, 3.8 % on stretching cells (docs/validation.md); "
                "ritz: about twice as stiff as FE).", "",
              "| module | Pc | Ph |", "|---|---:|---:|"]
     for n in d["order"]:
