@@ -12,9 +12,9 @@ For each kind of cell (bending, stretching, tilted):
    and hardening pressures, log(Pc/μ) and log(Ph/μ) (the shared definitions of
    :mod:`multimorph.response` read on the FE path): the *anchors*. Pc and Ph are
    functionals of the whole curve (an inflection, a knee) that a path read back from grid
-   values places poorly; predicted on their own they are 2–3 times closer to FE, and the
-   model warps its predicted path in pressure so that the path's own Pc and Ph fall on them
-   (:func:`~._model.anchored_path`).
+   values places poorly; predicted on their own they are about twice as close to FE, and
+   the model reports them as the response's Pc and Ph where its path reaches them, the
+   path itself unchanged (:func:`~._anchor.anchored_characteristic`).
 
 The shipped model computes each cell's Ritz features with the Ritz model at run time (the
 cost of one batched Ritz trace). Optionally (``fit model --emulators``) they are emulated
