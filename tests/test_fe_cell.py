@@ -110,23 +110,30 @@ def test_cli_fem_writes_outputs(tmp_path: Path) -> None:
 
 def test_cli_fem_compare_writes_the_comparison_figure(tmp_path: Path,
                                                       monkeypatch: pytest.MonkeyPatch) -> None:
-    """``--compare``: comparison.json and comparison.png (the Ritz model against FE; a
-    stand-in Ritz response keeps the test to the FE run and the files)."""
+    """``--compare``: comparison.json and comparison.png, against the calibrated model by
+    default (``--model`` picks another); a stand-in cell model keeps the test to the FE run,
+    the files and the model's name."""
     from typer.testing import CliRunner
 
-    import multimorph.rom
+    import multimorph.models
     from multimorph.cli._app import _register, app
     from multimorph.response import EquilibriumPath, build_response
 
-    def ritz(cell, p_max):  # κ rising steepest at 10 kPa, as the Ritz model labels it
-        P = np.linspace(0.0, p_max, 61)
-        z = np.zeros_like(P)
-        path = EquilibriumPath(P, 20.0 * (1 + np.tanh((P - 10e3) / 2e3)), z, z + 1, 1 + P,
-                               z + 1, np.ones_like(P, bool))
-        return build_response(path, length=cell.length, shear_modulus=cell.mu,
-                              backend="rom", meta={"model": "cell-ritz"})
+    asked: list[str] = []
 
-    monkeypatch.setattr(multimorph.rom, "simulate_cell", ritz)
+    def cell_model(name=None):  # κ rising steepest at 10 kPa, labelled as the model asked
+        asked.append(name)
+
+        def model(cell, p_max):
+            P = np.linspace(0.0, p_max, 61)
+            z = np.zeros_like(P)
+            path = EquilibriumPath(P, 20.0 * (1 + np.tanh((P - 10e3) / 2e3)), z, z + 1,
+                                   1 + P, z + 1, np.ones_like(P, bool))
+            return build_response(path, length=cell.length, shear_modulus=cell.mu,
+                                  backend="calibrated", meta={"model": name})
+        return model
+
+    monkeypatch.setattr(multimorph.models, "cell_model", cell_model)
     _register()
     spec = tmp_path / "cell.toml"
     spec.write_text(_CELL_SPEC)
@@ -135,11 +142,17 @@ def test_cli_fem_compare_writes_the_comparison_figure(tmp_path: Path,
                                    "15 kPa", "--out", str(out), "--compare", "--no-vtu",
                                    "--json"])
     assert res.exit_code == 0, res.output
+    assert asked == ["calibrated"]
     info = json.loads(res.output)
     assert {"comparison.json", "comparison.png"} <= set(info["files"])
     assert (out / "comparison.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    assert info["comparison"]["meta"]["model"] == "ritz"
+    assert info["comparison"]["meta"]["model"] == "calibrated"
     assert info["comparison"]["critical_pressure"]["rom"] == pytest.approx(10e3, rel=0.05)
+    # a model name that is not one of the fast models is refused before any FE work
+    res = CliRunner().invoke(app, ["fem", str(spec), "--compare", "--model", "fe",
+                                   "--out", str(tmp_path / "x"), "--json"])
+    assert res.exit_code != 0 and "--model" in res.output
+    assert not (tmp_path / "x").exists()
 
 
 def test_chord_steps_trace_the_same_equilibria_with_fewer_factorisations() -> None:

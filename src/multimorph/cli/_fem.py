@@ -76,8 +76,11 @@ def fem(
     out: Annotated[Path | None, typer.Option(
         "--out", "-o", help="Output folder (default multimorph-out/fem-<spec name>).")] = None,
     compare: Annotated[bool, typer.Option(
-        "--compare", help="Also run the reduced model and report Pc, Ph, κ(P) side by side.")
-                       ] = False,
+        "--compare", help="Also run a fast cell model (--model) and report Pc, Ph and the "
+                          "curves side by side.")] = False,
+    model: Annotated[str, typer.Option(
+        "--model", help="The cell model --compare runs: calibrated (default), "
+                        "calibrated-fast or ritz.")] = "calibrated",
     as_json: Annotated[bool, typer.Option("--json", help="Print the JSON summary.")] = False,
     module: Annotated[str | None, typer.Option(
         "--module", help="Device spec: run FE of this one module, clamped at its start (a "
@@ -96,8 +99,9 @@ def fem(
 
     Example: multimorph fem examples/fe_cell.toml --mesh medium --pmax "60 kPa" --out out/fe
 
-    With --compare the reduced model runs on the same spec and comparison.json holds Pc, Ph
-    and κ(P) of both (per module for a device) with relative differences (rom − fe)/fe.
+    With --compare a fast cell model (--model: calibrated by default, or ritz) runs on the
+    same spec; comparison.json and comparison.png hold Pc, Ph and κ(P) of both (per module
+    for a device) with relative differences (model − fe)/fe.
 
     With --module NAME (device spec) only that module runs: a twisting module as its strips
     around the shaft, measured by the twist angle of its free end; --compare sets the twist
@@ -119,6 +123,10 @@ def fem(
                    "wall_elements": wall_elements, "pmax": pmax,
                    "method": method, "solver": solver, "full": full, "cells": cells,
                    "tilt": tilt, "module": module}
+        from multimorph.models import cell_model, model_name
+
+        fast = model_name(model, allowed=("calibrated", "calibrated-fast", "ritz"),
+                          field="--model")
         job = _job(spec, table, compare=compare, **options)
         suffix = f"-{module}" if job.kind == "twisting" else ""
         folder = out if out is not None else Path("multimorph-out") / f"fem-{spec.stem}{suffix}"
@@ -127,7 +135,8 @@ def fem(
             checkpoint.clear()
         label = {"cell": "the cell", "device": "the device", "twisting": "the module"}[job.kind]
         with _resumable(checkpoint, as_json), _progress(label, job.p_end, as_json) as update:
-            outcome = run_job(job, progress=update, checkpoint=checkpoint)
+            outcome = run_job(job, progress=update, checkpoint=checkpoint,
+                              cell_model=cell_model(fast))
         with atomic_output_dir(folder) as tmp:
             info = write_outcome(outcome, tmp, vtu=vtu)
         checkpoint.clear()

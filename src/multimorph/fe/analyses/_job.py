@@ -5,14 +5,19 @@ the reduced model.
 :class:`FEJob` picks the route: a tilted strip has no mirror plane (a full model), a device
 runs to its design pressure unless told otherwise, one bending or stretching module of a
 device runs as a one-module device and one twisting module as its strips around the shaft.
-:func:`run_job` runs it and, when asked, the reduced model beside it.
+:func:`run_job` runs it and, when asked, a fast cell model beside it (the calibrated one
+by default).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 
-from multimorph.device import Device, Module
+import numpy as np
+
+from multimorph.device import Device, Module, default_cell_model
+from multimorph.device import simulate_device as rom_device
 from multimorph.errors import SpecError
 from multimorph.fe.analyses._cell import FEResult, simulate_cell
 from multimorph.fe.analyses._compare import (
@@ -26,12 +31,15 @@ from multimorph.fe.analyses._run import Progress
 from multimorph.fe.analyses._twist import FETwistResult, simulate_twisting_module
 from multimorph.fe.engine import FESettings, PathCheckpoint
 from multimorph.fe.mesh import FE_MODULE_KINDS, fe_device_branches
-from multimorph.geometry import CellGeometry
+from multimorph.geometry import CellGeometry, TiltedCell
+from multimorph.response import Response
 
 __all__ = ["JOB_KINDS", "FEJob", "FEOutcome", "run_job"]
 
 #: the routes of one FE run
 JOB_KINDS = ("cell", "device", "twisting")
+#: A cell model, as :mod:`multimorph.models` makes them.
+CellModel = Callable[[CellGeometry | TiltedCell, float], Response]
 
 
 @dataclass(frozen=True, eq=False)
@@ -128,25 +136,39 @@ class FEOutcome:
 
 
 def run_job(job: FEJob, *, progress: Progress | None = None,
-            checkpoint: PathCheckpoint | None = None) -> FEOutcome:
-    """Run an FE job and, with ``job.compare``, the reduced model beside it (``progress``
-    and ``checkpoint`` as for :func:`~multimorph.fe.simulate_cell`)."""
+            checkpoint: PathCheckpoint | None = None,
+            cell_model: CellModel | None = None) -> FEOutcome:
+    """Run an FE job and, with ``job.compare``, a fast cell model beside it (``progress``
+    and ``checkpoint`` as for :func:`~multimorph.fe.simulate_cell`).
+
+    ``cell_model(cell, p_max) -> Response`` is the model the comparison runs (default
+    :func:`multimorph.device.default_cell_model`, the calibrated model; the CLI's
+    ``fem --compare --model``); a tilted strip and a twisting module are compared with the
+    straight cell's response read by the twisting kinematics."""
+    model = cell_model or default_cell_model
     if job.kind == "cell":
         assert job.geometry is not None
         cell = simulate_cell(job.geometry, job.settings, progress=progress,
                              n_cells=job.n_cells, tilt=job.tilt, checkpoint=checkpoint)
         if not job.compare:
             return FEOutcome(job, cell)
-        from multimorph.rom import simulate_cell as rom_simulate
-
-        return FEOutcome(job, cell, compare_cell_run(rom_simulate(job.geometry, job.p_end), cell))
+        return FEOutcome(job, cell, compare_cell_run(model(job.geometry, job.p_end), cell))
     if job.kind == "device":
         assert job.device is not None
         device = simulate_device(job.device, job.settings, progress=progress,
                                  checkpoint=checkpoint)
-        # the reduced-model device to 2 × p_max (it is stiffer than FE)
-        return FEOutcome(job, device, compare_device(device) if job.compare else None)
+        if not job.compare:
+            return FEOutcome(job, device)
+        # the cell-model device to 2 × p_max (where it is stiffer than FE, it still reaches
+        # the FE's activations)
+        p_rom = 2.0 * device.stats["p_max"]
+        rom = rom_device(job.device, p_rom, cell_model=model)
+        return FEOutcome(job, device, compare_device(device, rom, rom_p_max=p_rom))
     assert job.module is not None
     twist = simulate_twisting_module(job.module, job.settings, p_max=job.settings.p_max,
                                      progress=progress, checkpoint=checkpoint)
-    return FEOutcome(job, twist, compare_twisting(twist) if job.compare else None)
+    if not job.compare:
+        return FEOutcome(job, twist)
+    p_rom = 2.0 * float(np.max(twist.pressure))
+    return FEOutcome(job, twist, compare_twisting(twist, rom=model(job.module.cell, p_rom),
+                                                  rom_p_max=p_rom))

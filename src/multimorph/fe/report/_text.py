@@ -1,5 +1,5 @@
 """The console summary of an FE run: a headline and a few lines of the numbers that matter
-(Pc, Ph, the final state, the peak stretch, ROM vs FE)."""
+(Pc, Ph, the final state, the peak stretch, a fast cell model vs FE)."""
 
 from __future__ import annotations
 
@@ -41,7 +41,7 @@ def _headline(what: str, stats: Mapping[str, Any]) -> str:
 
 
 def _cell_lines(outcome: FEOutcome, info: Mapping[str, Any]) -> tuple[str, list[str]]:
-    """A cell run: the headline, Pc/Ph, the final state, the strip shear, ROM vs FE."""
+    """A cell run: the headline, Pc/Ph, the final state, the strip shear, the model vs FE."""
     job, result, comparison = outcome.job, outcome.result, outcome.comparison
     cells, beta = job.n_cells, job.tilt
     what = "FE cell" if cells == 1 else f"FE module of {cells} cells"
@@ -63,14 +63,16 @@ def _cell_lines(outcome: FEOutcome, info: Mapping[str, Any]) -> tuple[str, list[
                      f"{extra['strip_axial_strain'][-1]:+.4f} at the highest pressure")
     if comparison is not None and beta:
         mid = len(comparison.pressure) // 2
-        lines.append(f"ROM twisting kinematics vs FE: γ_fe/γ_rom = "
+        lines.append(f"{comparison.meta.get('model', 'model')} twisting kinematics vs FE: "
+                     f"γ_fe/γ_model = "
                      f"{comparison.ratio[mid]:.3g} at {comparison.pressure[mid] / 1e3:.3g} "
                      f"kPa, {comparison.ratio[-1]:.3g} at {comparison.pressure[-1] / 1e3:.3g} kPa")
     elif comparison is not None:
         def rel(v: float | None) -> str:
             return "—" if v is None else f"{100 * v:+.1f} %"
 
-        lines.append(f"ROM vs FE: Pc {_kpa(comparison.pc_rom)} vs {_kpa(comparison.pc_fe)}"
+        lines.append(f"{comparison.meta.get('model', 'model')} vs FE: Pc "
+                     f"{_kpa(comparison.pc_rom)} vs {_kpa(comparison.pc_fe)}"
                      f" ({rel(comparison.pc_rel)}), Ph {_kpa(comparison.ph_rom)} vs "
                      f"{_kpa(comparison.ph_fe)} ({rel(comparison.ph_rel)}), " + (
                          f"on the axial stretch, max |Δλ|/(λ − 1) "
@@ -90,10 +92,13 @@ def _device_lines(outcome: FEOutcome, info: Mapping[str, Any]) -> tuple[str, lis
     head = (f"  {'module':<10} {'kind':<10} {'Pc':>6} {'Ph':>6} {'at P':>6} {'bend°':>6} "
             f"{'twist°':>6} {'stretch':>7}")
     if comparison is not None:
-        head += f"  {'ROM Pc':>6} {'rel':>5} {'Ph':>6} {'rel':>5}"
+        names = sorted({str(row.get("model", "model")) for row in comparison.values()})
+        head += f"  {'model Pc':>8} {'rel':>5} {'Ph':>6} {'rel':>5}"
     lines.append("modules (Pc, Ph in kPa, — not reached; bend towards the stiff layer, twist "
                  "about the axis and centroid stretch at P, the top of the module's stable "
                  "loading curve):")
+    if comparison is not None:
+        lines.append(f"model: {', '.join(names)} (its Pc, Ph and (model − FE)/FE beside FE's)")
     lines.append(head)
     for module in result.mesh.modules:
         pc, ph = result.activation(module.name)
@@ -104,7 +109,7 @@ def _device_lines(outcome: FEOutcome, info: Mapping[str, Any]) -> tuple[str, lis
                 f"{math.degrees(at['twist_angle']):>6.1f} {at['axial_stretch']:>7.3f}")
         if comparison is not None:
             row = comparison[module.name]
-            line += (f"  {_kpa(row['pc_rom'], ''):>6} {_pct(row['pc_rel']):>5} "
+            line += (f"  {_kpa(row['pc_rom'], ''):>8} {_pct(row['pc_rel']):>5} "
                      f"{_kpa(row['ph_rom'], ''):>6} {_pct(row['ph_rel']):>5}")
         lines.append(line)
     final = {name: entry["final"] for name, entry in info["device"]["modules"].items()}
@@ -129,7 +134,7 @@ def _device_lines(outcome: FEOutcome, info: Mapping[str, Any]) -> tuple[str, lis
 
 
 def _module_lines(outcome: FEOutcome, info: Mapping[str, Any]) -> tuple[str, list[str]]:
-    """A twisting-module run: the headline, Pc/Ph, the final state, ROM vs FE."""
+    """A twisting-module run: the headline, Pc/Ph, the final state, the model vs FE."""
     result, comparison = outcome.result, outcome.comparison
     module = result.module
     what = "FE twisting module"
@@ -146,7 +151,8 @@ def _module_lines(outcome: FEOutcome, info: Mapping[str, Any]) -> tuple[str, lis
                  f"{', '.join(f'{v * 1e3:.1f}' for v in final['peak_location_m'])} mm "
                  f"undeformed)")
     if comparison is not None:
-        lines.append(f"ROM vs FE (twist in the sense of the tilt): Pc "
+        lines.append(f"{comparison.get('model', 'model')} vs FE (twist in the sense of the "
+                     f"tilt): Pc "
                      f"{_kpa(comparison['pc_rom'])} vs {_kpa(comparison['pc_fe'])} "
                      f"({_pct(comparison['pc_rel'])})")
         for P, a, b, la, lb in zip(comparison["pressure_pa"], comparison["twist_deg_rom"],
