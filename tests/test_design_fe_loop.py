@@ -1,6 +1,7 @@
-"""FE in the loop (issue 19): one correction round of a small two-stage device in 3D FE.
+"""FE in the loop (issue 19): one correction round of a small two-stage device in 3D FE,
+by both routes (each stage's module on its own, the default, and the whole device).
 
-The device FE is kept small (one element through each wall, a few dozen continuation
+The FE is kept small (one element through each wall, a few dozen continuation
 steps: stiffer than the converged FE, which does not matter here). Checked: the rounds'
 bookkeeping (the FE values are the device FE's, the correction of round 1 is round 0's
 FE/model ratio), that the corrected design moves the FE result toward the targets, and
@@ -48,13 +49,14 @@ min_safety_factor = 1.2
 FE = dict(fe_wall_elements=1, fe_max_steps=40)
 
 
-def _run(folder):
+def _run(folder, route):
     from multimorph.models import batch_model
 
     target = target_from_spec(tomllib.loads(TARGET))
     return run_design(target, DesignSettings(budget=1200, population=24, seed=3),
                       model=batch_model("calibrated-fast", fallback=False),
-                      robustness_samples=0, fe_rounds=1, fe_folder=folder, **FE)
+                      robustness_samples=0, fe_rounds=1, fe_folder=folder, fe_route=route,
+                      **FE)
 
 
 def _miss(ev, target):
@@ -65,9 +67,10 @@ def _miss(ev, target):
     return out
 
 
-def test_one_fe_round(tmp_path):
+@pytest.mark.parametrize("route", ["modules", "device"])
+def test_one_fe_round(tmp_path, route):
     folder = tmp_path / "fe"
-    run = _run(folder)
+    run = _run(folder, route)
     r = run.result
     assert r.fe_rounds, "no FE round ran"
     assert [rd.index for rd in r.fe_rounds] == list(range(len(r.fe_rounds)))
@@ -75,7 +78,17 @@ def test_one_fe_round(tmp_path):
     files = sorted(folder.glob("*.json"))
     assert len(files) == len(r.fe_rounds)
     saved = [json.loads(f.read_text()) for f in files]
-    assert all(s["format"] == FE_CHECK_FORMAT for s in saved)
+    assert all(s["format"] == FE_CHECK_FORMAT and s["route"] == route for s in saved)
+    if route == "modules":
+        # one FE run per stage's module, each kept on its own (resumable module by module)
+        for s in saved:
+            parts = sorted((folder / f"{s['key']}.modules").glob("*.json"))
+            assert [p.stem for p in parts] == sorted(["seal", "stalk"])
+            assert set(s["stats"]) == {"seal", "stalk"}
+        # the measured motions have the stages' sense: the seal lengthens, the stalk bends
+        for rd in r.fe_rounds:
+            seal, stalk = rd.check.stages
+            assert seal.magnitude > 0 and stalk.magnitude > 0
     # each round's FE values are those the device FE measured
     by_key = {tuple((row["name"], row["end"]) for row in s["stages"]) for s in saved}
     for rd in r.fe_rounds:
@@ -96,7 +109,7 @@ def test_one_fe_round(tmp_path):
         assert (_miss(second.check, t) < _miss(first.check, t)
                 or second.check.objective < first.check.objective)
     # a second run re-uses the finished FE rounds (no new FE file, same FE values)
-    again = _run(folder).result
+    again = _run(folder, route).result
     assert sorted(folder.glob("*.json")) == files
     assert [[s.end for s in rd.check.stages] for rd in again.fe_rounds] == \
         [[s.end for s in rd.check.stages] for rd in r.fe_rounds]

@@ -58,16 +58,24 @@ def design_command(
     robust: Annotated[bool, typer.Option(
         "--robust", help="Rank the shortlist by a robust objective (Monte Carlo).")] = False,
     verify_fe: Annotated[bool, typer.Option(
-        "--verify-fe", help="Mesh the best design's whole device and inflate it in 3D FE; "
-        "report each stage's Pc, Ph and motion, model vs FE (minutes to tens of minutes; "
-        "resumable: finished FE runs are kept in <out>.fe and re-used).")] = False,
+        "--verify-fe", help="Inflate the best design in 3D FE (--fe-route: each stage's "
+        "module on its own, or the whole device); report each stage's Pc, Ph and motion, "
+        "model vs FE (minutes to tens of minutes; resumable: finished FE runs are kept in "
+        "<out>.fe and re-used).")] = False,
     fe_rounds: Annotated[int | None, typer.Option(
         "--fe-rounds", min=0, max=10,
         help="FE in the loop (implies --verify-fe): where the device FE misses a target, "
              "correct the targets by the model/FE ratio of the design and search again near "
              "it, at most N times (default 0: verify only).")] = None,
     fe_mesh: Annotated[str, typer.Option(
-        "--fe-mesh", help="Mesh of the device FE: coarse, medium or fine.")] = "coarse",
+        "--fe-mesh", help="Mesh of the device FE and of twisting modules: coarse, medium or "
+                          "fine (bending and stretching modules on the modules route take "
+                          "the FE data set's mesh).")] = "coarse",
+    fe_route: Annotated[str, typer.Option(
+        "--fe-route", help="How FE inflates the design: modules (each stage's module on its "
+                           "own, on the common pressure; default) or device (the whole "
+                           "device as one problem; it stops at the first module's limit "
+                           "point).")] = "modules",
     vectorised: Annotated[bool, typer.Option(
         "--vectorised", help="Trace each batch with the vmapped ROM (default: a loop of "
         "single-design traces, faster on small CPUs today).")] = False,
@@ -125,6 +133,11 @@ def design_command(
             verify_fe = True
         if fe_mesh not in ("coarse", "medium", "fine"):
             raise SpecError(f"--fe-mesh: expected coarse, medium or fine, got {fe_mesh!r}")
+        from multimorph.design import FE_ROUTES
+
+        if fe_route not in FE_ROUTES:
+            raise SpecError(f"--fe-route: expected one of {', '.join(FE_ROUTES)}, got "
+                            f"{fe_route!r}")
         if verify_fe:
             ok, why = fe_available()
             if not ok:
@@ -153,6 +166,7 @@ def design_command(
                              robustness_samples=robustness,
                              fe_rounds=(fe_rounds or 0) if verify_fe else None,
                              fe_folder=Path(str(folder) + ".fe"), fe_mesh=fe_mesh,
+                             fe_route=fe_route,
                              progress=lambda done, total, phase: update(
                                  min(done, total), total, phase=f"search: {phase}"),
                              stage=lambda text: update(None, phase=text))
@@ -216,7 +230,9 @@ def _print_summary(result: Any, rob: Any, folder: Path, files: list[str]) -> Non
     if result.fe_rounds:
         last = result.fe_rounds[-1]
         verdict = "FE-verified" if result.fe_verified else "NOT FE-verified"
-        console.print(f"  3D FE of the device: {verdict} ({len(result.fe_rounds)} FE "
+        route = ("each module on its own" if result.fe_route == "modules"
+                 else "the whole device")
+        console.print(f"  3D FE ({route}): {verdict} ({len(result.fe_rounds)} FE "
                       "round(s))", highlight=False)
         fe_best = result.fe_best
         for stage, m, f in zip(last.wanted.stages, result.best.stages, fe_best.stages,

@@ -6,6 +6,7 @@ explanation when none can, and Monte Carlo robustness figures. See ``docs/design
 """
 
 from multimorph.design._evaluate import Evaluation, StageResult, evaluate_one
+from multimorph.design._fe_check import FE_ROUTES, fe_checker, module_measure
 from multimorph.design._mapped import (
     Checker,
     MappingRound,
@@ -46,6 +47,7 @@ from multimorph.design._target import (
 )
 
 __all__ = [
+    "FE_ROUTES",
     "GRADED_RATIO",
     "GRADED_RATIO_CALIBRATED",
     "N_VARS",
@@ -75,10 +77,12 @@ __all__ = [
     "device_length",
     "evaluate_one",
     "evaluate_population",
+    "fe_checker",
     "graded_target",
     "mapped_design",
     "material_stderr",
     "model_checker",
+    "module_measure",
     "polish_stages",
     "robustness",
     "rom_batch_model",

@@ -1,13 +1,28 @@
 """The 3D FE of a designed device as the checking model of a space-mapped design.
 
-:func:`fe_checker` builds a :data:`~multimorph.design.Checker` that meshes the whole device
-of a design (series modules, fingers on their hub, twisting modules on their shaft: the
-device FE of :func:`multimorph.fe.simulate_device`), inflates it to the target's maximum
-pressure, and measures each stage's module: Pc and Ph on the module's own signal, its
-motion at Ph (bend angle in the module frame, twist angle, or axial stretch − 1) and its
-peak stretch at the top. The scores use the same rules as the model's
-(:func:`~multimorph.design.score_measured`). The device is the one its ``device.toml``
-describes (lengths rounded to 0.01 mm).
+:func:`fe_checker` builds a :data:`~multimorph.design.Checker` that inflates a design in 3D
+FE to the target's maximum pressure and measures each stage's module: Pc and Ph on the
+module's own signal, its motion at Ph (bend angle in the module frame, twist angle, or
+axial stretch − 1) and its peak stretch at the top. The scores use the same rules as the
+model's (:func:`~multimorph.design.score_measured`). The device is the one its
+``device.toml`` describes (lengths rounded to 0.01 mm). Two routes (:data:`FE_ROUTES`):
+
+``modules`` (the default)
+    Each stage's module on its own, clamped at its start, on the common pressure: a bending
+    or stretching module as its cells in series (:func:`multimorph.fe.simulate_cell` with
+    ``n_cells``, the FE reference data set's mesh: 2 elements through every wall, in-plane
+    edges d/20), a twisting module as its strips around the shaft
+    (:func:`multimorph.fe.simulate_twisting_module`). On one pressure line each module's
+    state is its own equilibrium at that pressure; its neighbours move its base as a rigid
+    body (series) or not at all (fingers on a hub), so the stages are those of the device
+    up to the coupling through the shared end walls, which this route leaves out.
+``device``
+    The whole device as one problem (series modules, fingers on their hub, twisting
+    modules on their shaft: :func:`multimorph.fe.simulate_device`). Under pressure control
+    a device snaps at its first module's limit point, and the arc-length path of the whole
+    device stops there: measured on the jar lifter, it stalled at the sealer's 68.9 kPa
+    (coarse mesh) or turned back at a branch point (medium mesh), so the later stages got
+    no FE reading. Use it where no module has a limit point before the last stage.
 
 Resumable: each device's run is keyed by a fingerprint of its layout, the FE settings and
 the code version. Its converged points are saved as they come (a killed run resumes from
@@ -30,9 +45,12 @@ from multimorph.design._evaluate import Evaluation, Measured, score_measured
 from multimorph.design._target import TargetSpec
 from multimorph.errors import MultimorphError
 
-__all__ = ["as_written", "fe_checker", "fe_measure"]
+__all__ = ["FE_ROUTES", "as_written", "fe_checker", "fe_measure", "module_measure"]
 
 FE_CHECK_FORMAT = "multimorph-fe-check/1"
+#: How :func:`fe_checker` inflates a design (see the module docstring); the first is the
+#: default.
+FE_ROUTES = ("modules", "device")
 
 
 def _module_names(result: Any, stage_name: str) -> list[str]:
@@ -42,6 +60,22 @@ def _module_names(result: Any, stage_name: str) -> list[str]:
         raise MultimorphError(f"device FE: no module {stage_name!r} in the result "
                               f"({', '.join(sorted(result.responses))})")
     return names
+
+
+def _stage_row(stage: Any, sr: Any, cell: Any, starts: list[Any], ends: list[Any],
+               mags: list[float], peaks: list[Any], top: float) -> dict[str, Any]:
+    def mean(values: list[Any]) -> float | None:
+        if any(v is None for v in values):
+            return None
+        return float(np.mean(values))
+
+    peak = mean(peaks)
+    brk = [m.break_stretch for m in (cell.material, cell.bottom_material)
+           if m is not None and m.break_stretch]
+    return {"name": stage.name, "start": mean(starts), "end": mean(ends),
+            "magnitude": float(np.mean(mags)), "n_cells": sr.n_cells, "peak_stretch": peak,
+            "safety_factor": (min(brk) / peak) if (brk and peak) else None,
+            "top_pressure": top}
 
 
 def fe_measure(target: TargetSpec, ev: Evaluation, result: Any) -> list[dict[str, Any]]:
@@ -67,21 +101,40 @@ def fe_measure(target: TargetSpec, ev: Evaluation, result: Any) -> list[dict[str
             starts.append(pc)
             ends.append(ph)
             mags.append(mag)
-
-        def mean(values: list[Any]) -> float | None:
-            if any(v is None for v in values):
-                return None
-            return float(np.mean(values))
-
-        peak = mean(peaks)
-        brk = [m.break_stretch for m in (cell.material, cell.bottom_material)
-               if m is not None and m.break_stretch]
-        out.append({"name": stage.name, "start": mean(starts), "end": mean(ends),
-                    "magnitude": float(np.mean(mags)), "n_cells": sr.n_cells,
-                    "peak_stretch": peak,
-                    "safety_factor": (min(brk) / peak) if (brk and peak) else None,
-                    "top_pressure": float(np.max(result.pressure))})
+        out.append(_stage_row(stage, sr, cell, starts, ends, mags, peaks,
+                              float(np.max(result.pressure))))
     return out
+
+
+def module_measure(kind: str, response: Any, length: float, p_max: float,
+                   ) -> tuple[float | None, float | None, float, float | None]:
+    """(Pc, Ph, motion at Ph, peak stretch) of one module's FE response on its own (the
+    ``modules`` route): Pc and Ph as the device FE reads them (:func:`multimorph.fe.
+    analyses.activation`; ``None`` above ``p_max`` or not reached), the motion at Ph — or at
+    the top of the stable loading curve where there is no Ph — as the bend angle κL, the
+    twist angle (twist rate × L) or the axial stretch − 1 (``kind``: bend, twist, stretch)."""
+    from multimorph.fe.analyses import activation
+
+    pc, ph = activation(response)
+    pc = pc if pc is not None and pc <= p_max else None
+    ph = ph if ph is not None and ph <= p_max else None
+    lo = response.loading
+    P = np.asarray(lo.pressure, float)
+    if not len(P):
+        return pc, ph, 0.0, None
+    at = float(ph) if ph is not None else float(P[-1])
+    keep = np.concatenate([[True], np.diff(P) > 0])
+
+    def value(y: Any) -> float:
+        return float(np.interp(at, P[keep], np.asarray(y, float)[keep]))
+
+    if kind == "bend":
+        mag = abs(value(lo.curvature)) * length
+    elif kind == "twist":
+        mag = abs(value(lo.twist_rate)) * length
+    else:
+        mag = value(lo.axial_stretch) - 1.0
+    return pc, ph, mag, float(np.max(lo.peak_stretch))
 
 
 def _score(target: TargetSpec, ev: Evaluation, rows: Sequence[dict[str, Any]]) -> Evaluation:
@@ -114,21 +167,40 @@ def _fingerprint(ev: Evaluation, options: dict[str, Any]) -> str:
     return h.hexdigest()[:16]
 
 
+#: The ``modules`` route's mesh of bending and stretching modules: the FE reference data
+#: set's (2 elements through every wall, in-plane edges d/20; Pc within 3 % of a finer
+#: mesh, docs/validation.md), so that the check and the calibration see the same FE.
+MODULE_WALL_ELEMENTS = 2
+MODULE_LENGTH_FRACTION = 0.05
+#: The ``modules`` route's most continuation points per module (the data set's 150 with
+#: room for the longer paths of modules of several cells).
+MODULE_MAX_STEPS = 250
+
+
 def fe_checker(folder: str | Path, *, mesh: str = "coarse",
                wall_elements: int | None = None, max_steps: int = 400,
                max_volume_ratio: float = 25.0, dx_max: float = 0.04,
+               route: str = "modules",
                progress: Callable[[str], None] | None = None,
                records: list[dict[str, Any]] | None = None) -> Callable[..., list[Evaluation]]:
-    """A checker (see :func:`~multimorph.design.mapped_design`) that runs the device FE of
-    the first design it is given (FE checks one design a round) and scores it.
+    """A checker (see :func:`~multimorph.design.mapped_design`) that runs the FE of the
+    first design it is given (FE checks one design a round) and scores it.
 
     Parameters
     ----------
     folder : path
-        Where each device's measurements (``<key>.json``) and resume points
-        (``<key>.resume``) are kept.
+        Where each design's measurements (``<key>.json``) and resume points
+        (``<key>.resume``; on the ``modules`` route each module's in ``<key>.modules/``)
+        are kept.
+    route : {"modules", "device"}
+        Each stage's module on its own, or the whole device as one problem
+        (:data:`FE_ROUTES`, the module docstring says why ``modules`` is the default).
     mesh, wall_elements, max_steps, max_volume_ratio, dx_max
-        FE settings (:class:`multimorph.fe.FESettings`); the path stops where a module's
+        FE settings of the ``device`` route and of twisting modules
+        (:class:`multimorph.fe.FESettings`); bending and stretching modules on the
+        ``modules`` route take the data set's mesh (:data:`MODULE_WALL_ELEMENTS`, or
+        ``wall_elements``, and :data:`MODULE_LENGTH_FRACTION`) and at most
+        :data:`MODULE_MAX_STEPS` points. The path stops where a module's
         chambers reach 25 × their volume (as the FE data set's cells: well past every
         hardening knee, before the slow creep of a fully ballooned chamber). The arc-length
         step may move a node 0.04 d (the default 0.01 d took 145 points, 20 min, for the
@@ -139,6 +211,9 @@ def fe_checker(folder: str | Path, *, mesh: str = "coarse",
         Receives one dict per FE run (key, file, wall time, stages measured).
     """
     folder = Path(folder)
+    if route not in FE_ROUTES:
+        raise MultimorphError(f"--fe-route: expected one of {', '.join(FE_ROUTES)}, got "
+                              f"{route!r}")
 
     def check(target: TargetSpec, evs: Sequence[Evaluation]) -> list[Evaluation]:
         if not evs:
@@ -151,7 +226,8 @@ def fe_checker(folder: str | Path, *, mesh: str = "coarse",
         pmax = target.constraints.max_pressure
         kw: dict[str, Any] = {"mesh": mesh, "p_max": pmax, "max_steps": max_steps,
                               "max_volume_ratio": max_volume_ratio, "dx_max": dx_max}
-        key = _fingerprint(ev, {**kw, "wall_elements": wall_elements})
+        key = _fingerprint(ev, {**kw, "wall_elements": wall_elements,
+                                **({"route": route} if route != "device" else {})})
         if wall_elements is not None:
             from dataclasses import replace as _replace
 
@@ -169,6 +245,21 @@ def fe_checker(folder: str | Path, *, mesh: str = "coarse",
                 return [_score(target, ev, saved["stages"])]
         folder.mkdir(parents=True, exist_ok=True)
         t0 = time.perf_counter()
+        if route == "modules":
+            rows, stats = _modules_route(target, ev, kw, folder, key, progress,
+                                         wall_elements)
+            saved = {"format": FE_CHECK_FORMAT, "key": key, "route": route, "settings": kw,
+                     "wall_time_s": time.perf_counter() - t0,
+                     "points": sum(int(st["points"]) for st in stats.values()),
+                     "top_pressure": min(r["top_pressure"] for r in rows),
+                     "stats": stats, "stages": rows}
+            _save(done, saved)
+            if progress is not None:
+                progress(f"module FE {key}: done in {saved['wall_time_s']:.0f} s, "
+                         f"{len(rows)} modules")
+            if records is not None:
+                records.append({**saved, "reused": False})
+            return [_score(target, ev, rows)]
         if progress is not None:
             progress(f"device FE {key}: meshing and inflating to {pmax / 1e3:.4g} kPa")
         last = [0.0]
@@ -183,15 +274,13 @@ def fe_checker(folder: str | Path, *, mesh: str = "coarse",
         result = simulate_device(as_written(ev), FESettings(**kw), progress=tick,
                                  checkpoint=ckpt)
         rows = fe_measure(target, ev, result)
-        saved = {"format": FE_CHECK_FORMAT, "key": key, "settings": kw,
+        saved = {"format": FE_CHECK_FORMAT, "key": key, "route": route, "settings": kw,
                  "wall_time_s": time.perf_counter() - t0, "points": len(result.pressure),
                  "top_pressure": float(np.max(result.pressure)),
                  "stats": {k: v for k, v in result.stats.items()
                            if isinstance(v, (int, float, str, bool)) or v is None},
                  "stages": rows}
-        tmp = done.with_suffix(".json.tmp")
-        tmp.write_text(json.dumps(saved, indent=1, default=_jsonable))
-        tmp.replace(done)
+        _save(done, saved)
         ckpt.clear()
         if progress is not None:
             progress(f"device FE {key}: done in {saved['wall_time_s']:.0f} s, "
@@ -201,6 +290,90 @@ def fe_checker(folder: str | Path, *, mesh: str = "coarse",
         return [_score(target, ev, rows)]
 
     return check
+
+
+def _save(path: Path, saved: dict[str, Any]) -> None:
+    tmp = path.with_suffix(".json.tmp")
+    tmp.write_text(json.dumps(saved, indent=1, default=_jsonable))
+    tmp.replace(path)
+
+
+def _modules_route(target: TargetSpec, ev: Evaluation, kw: dict[str, Any], folder: Path,
+                   key: str, progress: Callable[[str], None] | None,
+                   wall_elements: int | None = None,
+                   ) -> tuple[list[dict[str, Any]], dict[str, dict[str, Any]]]:
+    """Each stage's module inflated on its own (the ``modules`` route): its rows as
+    :func:`fe_measure` gives them and each run's statistics. Every finished module is kept
+    in ``<key>.modules/<module>.json`` and a running one's points beside it
+    (``<module>.resume``), so an interrupted check resumes module by module."""
+    import time
+    from dataclasses import replace
+
+    from multimorph.fe import (
+        FESettings,
+        MeshDensity,
+        PathCheckpoint,
+        simulate_cell,
+        simulate_twisting_module,
+    )
+
+    device = as_written(ev)
+    pmax = target.constraints.max_pressure
+    rows, stats = [], {}
+    for stage, sr, cell in zip(target.stages, ev.stages, ev.candidate.cells, strict=True):
+        module = device.module(stage.name)
+        part = folder / f"{key}.modules" / f"{_slug(stage.name)}.json"
+        part.parent.mkdir(parents=True, exist_ok=True)
+        if part.exists():
+            saved = json.loads(part.read_text())
+            rows.append(saved["row"])
+            stats[stage.name] = saved["stats"]
+            if progress is not None:
+                progress(f"module FE {key}: {stage.name} finished earlier, re-used")
+            continue
+        t0 = time.perf_counter()
+        last = [0.0]
+
+        def tick(p: float, n: int, name: str = stage.name, t0: float = t0,
+                 last: list[float] = last) -> None:
+            if progress is not None and time.perf_counter() - last[0] > 30:
+                last[0] = time.perf_counter()
+                progress(f"module FE {key}: {name}: {n} points, {p / 1e3:.4g} kPa, "
+                         f"{time.perf_counter() - t0:.0f} s")
+
+        if progress is not None:
+            progress(f"module FE {key}: {stage.name} ({module.kind}, {module.n_cells} cells) "
+                     f"to {pmax / 1e3:.4g} kPa")
+        ckpt = PathCheckpoint(part.with_suffix(".resume"), f"{key}-{stage.name}")
+        if module.kind == "twisting":
+            res = simulate_twisting_module(replace(module, start=0.0), FESettings(**kw),
+                                           p_max=pmax, progress=tick, checkpoint=ckpt)
+            response, length = res.response, module.length
+        else:
+            settings = FESettings(**{**kw, "max_steps": min(kw["max_steps"],
+                                                            MODULE_MAX_STEPS),
+                                     "mesh": MeshDensity(
+                                         wall_elements=wall_elements or MODULE_WALL_ELEMENTS,
+                                         length_fraction=MODULE_LENGTH_FRACTION)})
+            res = simulate_cell(module.cell, settings, n_cells=module.n_cells, progress=tick,
+                                checkpoint=ckpt)
+            response, length = res.response, module.length
+        pc, ph, mag, peak = module_measure(stage.kind, response, length, pmax)
+        top = float(np.max(response.loading.pressure))
+        row = _stage_row(stage, sr, cell, [pc], [ph], [mag], [peak], top)
+        st = {k: v for k, v in res.stats.items()
+              if isinstance(v, (int, float, str, bool)) or v is None}
+        st["wall_time_s"] = time.perf_counter() - t0
+        _save(part, {"format": FE_CHECK_FORMAT, "key": key, "module": stage.name,
+                     "row": row, "stats": st})
+        ckpt.clear()
+        rows.append(row)
+        stats[stage.name] = st
+    return rows, stats
+
+
+def _slug(name: str) -> str:
+    return "".join(c if c.isalnum() or c in "-_" else "_" for c in name)
 
 
 def _jsonable(v: Any) -> Any:

@@ -164,6 +164,8 @@ class DesignResult:
     it (:class:`multimorph.design.MappingRound`, ``check`` the FE); empty without FE."""
     fe_best: Evaluation | None = None
     """The FE evaluation of the best FE-checked design (``designs[0]``), if any."""
+    fe_route: str | None = None
+    """How FE inflated the designs (:data:`multimorph.design.FE_ROUTES`); ``None``: no FE."""
 
     @property
     def fe_verified(self) -> bool | None:
@@ -192,6 +194,7 @@ class DesignResult:
             "graded": self.graded_stages(),
             "rounds": [r.to_dict() for r in self.rounds],
             "fe_verified": self.fe_verified,
+            "fe_route": self.fe_route,
             "fe_rounds": [r.to_dict() for r in self.fe_rounds],
             "fe": None if self.fe_best is None else self.fe_best.to_dict(),
         }

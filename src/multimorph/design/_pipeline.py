@@ -84,7 +84,7 @@ def run_design(target: TargetSpec, settings: DesignSettings, *,
                search_model: BatchModel | None = None, rounds: int = 3,
                fe_rounds: int | None = None, fe_folder: Path | None = None,
                fe_mesh: str = "coarse", fe_wall_elements: int | None = None,
-               fe_max_steps: int = 400) -> DesignRun:
+               fe_max_steps: int = 400, fe_route: str = "modules") -> DesignRun:
     """Design a device for ``target``, then check the best design.
 
     Parameters
@@ -115,6 +115,9 @@ def run_design(target: TargetSpec, settings: DesignSettings, *,
         search runs again near it, at most ``fe_rounds`` times. ``None``: no device FE.
     fe_mesh, fe_wall_elements, fe_max_steps
         The device FE's mesh and its most continuation steps.
+    fe_route : {"modules", "device"}
+        How FE inflates a design (:data:`~multimorph.design.FE_ROUTES`): each stage's
+        module on its own (default), or the whole device as one problem.
     stage : callable, optional
         ``stage(description)`` when a later step begins (robustness, FE check).
 
@@ -155,7 +158,7 @@ def run_design(target: TargetSpec, settings: DesignSettings, *,
                               "multimorph-out") / "fe-rounds",
                           mesh=fe_mesh, wall_elements=fe_wall_elements,
                           max_steps=fe_max_steps, stage=stage,
-                          records=fe_records)
+                          records=fe_records, route=fe_route)
     result = replace(result, target=searched, wanted=wanted)
     target = result.target            # the searched stages (graded parts included)
     best = result.best
@@ -188,10 +191,12 @@ FE_RADIUS = 0.1
 def _fe_loop(searched: TargetSpec, result: DesignResult, search: Callable[..., DesignResult],
              *, fe_rounds: int, model: Any, folder: Path, mesh: str,
              wall_elements: int | None, stage: Callable[[str], None] | None,
-             records: list[Any], max_steps: int = 400) -> DesignResult:
+             records: list[Any], max_steps: int = 400, route: str = "modules",
+             ) -> DesignResult:
     """FE in the loop: device FE of the best design; where it misses, the model corrected
     by the FE/model ratio of the best FE-checked design and the search run again near it."""
     check = fe_checker(folder, mesh=mesh, wall_elements=wall_elements, max_steps=max_steps,
+                       route=route,
                        progress=(lambda text: stage(text)) if stage is not None else None,
                        records=records)
     pmax = searched.constraints.max_pressure
@@ -208,7 +213,8 @@ def _fe_loop(searched: TargetSpec, result: DesignResult, search: Callable[..., D
                 break
         mine = rescore(searched, result.best)          # the model's own view, uncorrected
         if stage is not None:
-            stage(f"FE round {k}: device FE of the best design…")
+            stage(f"FE round {k}: {'module' if route == 'modules' else 'device'} FE of the "
+                  "best design…")
         fe_ev = check(searched, [result.best])[0]
         if best_fe is None or fe_ev.objective < best_fe[1].objective:
             best_fe = (mine, fe_ev)
@@ -221,7 +227,7 @@ def _fe_loop(searched: TargetSpec, result: DesignResult, search: Callable[..., D
         correction = nxt
     assert best_fe is not None
     others = [d for d in result.designs if d.candidate is not best_fe[0].candidate]
-    return replace(result, fe_rounds=tuple(rounds), fe_best=best_fe[1],
+    return replace(result, fe_rounds=tuple(rounds), fe_best=best_fe[1], fe_route=route,
                    designs=[best_fe[0], *others])
 
 

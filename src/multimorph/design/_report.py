@@ -237,9 +237,13 @@ def report_markdown(result: DesignResult, robust: RobustnessReport | None = None
                          f"{'yes' if rd.check.meets else 'no'} |")
         L.append("")
     if result.fe_rounds:
-        verdict = ("**FE-verified**: the device FE meets every target" if result.fe_verified
-                   else "**not FE-verified**: the device FE misses a target (below)")
-        L += ["## 3D FE verification of the device", "", verdict + ".", "",
+        verdict = ("**FE-verified**: 3D FE meets every target" if result.fe_verified
+                   else "**not FE-verified**: 3D FE misses a target (below)")
+        how = ("each stage's module inflated on its own in 3D FE, on the common pressure "
+               "(route `modules`: the coupling through the shared end walls is left out)"
+               if result.fe_route == "modules" else
+               "the whole device inflated as one 3D FE problem (route `device`)")
+        L += ["## 3D FE verification of the device", "", verdict + ".", "", how + ".", "",
               "| FE round | stage | wanted Pc | model Pc | FE Pc | wanted Ph | model Ph | "
               "FE Ph | wanted | model | FE |", "|---|---|---|---|---|---|---|---|---|---|---|"]
         for rd in result.fe_rounds:

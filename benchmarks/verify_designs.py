@@ -1,0 +1,112 @@
+"""Benchmark: the shipped design targets designed and checked in 3D FE (issue 19).
+
+Run from the repository root (prints a table; ``--json`` for machines)::
+
+    python benchmarks/verify_designs.py                           # every examples/target_*.toml
+    python benchmarks/verify_designs.py --targets jar_lifter --fe-rounds 2
+    python benchmarks/verify_designs.py --table-only              # the table of what is there
+
+Each target runs as a user runs it: ``multimorph design examples/target_<name>.toml
+--fe-rounds N --out benchmarks/runs/verify/<name>`` (default seed, the calibrated model, the
+``modules`` FE route). Its FE runs are kept in ``benchmarks/runs/verify/<name>.fe`` (commit
+them: the next run re-uses every finished module, and an interrupted one resumes from its
+saved points). The table gives, per target, FE round and stage: the wanted start and end
+pressure and magnitude, the calibrated model's and the FE's, and whether the round's FE
+meets the target (pressures within the target's pressure tolerance, magnitudes within its
+magnitude tolerance, the stage order kept).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parents[1]
+RUNS = ROOT / "benchmarks" / "runs" / "verify"
+
+
+def _kpa(v: float | None) -> str:
+    return "—" if v is None else f"{v / 1e3:.1f}"
+
+
+def _mag(kind: str, v: float | None) -> str:
+    if v is None:
+        return "—"
+    return f"{100 * v:.0f} %" if kind == "stretch" else f"{v * 57.29577951308232:.0f}°"
+
+
+def rows_of(name: str) -> list[dict[str, Any]]:
+    """The per-stage rows of every FE round of a finished run's report.json."""
+    report = RUNS / name / "report.json"
+    if not report.exists():
+        return []
+    r = json.loads(report.read_text())
+    out = []
+    for rd in r.get("fe_rounds", []):
+        for st in rd["stages"]:
+            out.append({"target": name, "round": rd["round"], "stage": st["name"],
+                        "kind": st["kind"], "wanted": st["wanted"],
+                        "model": st["search_model"], "fe": st["check_model"],
+                        "meets": rd["meets_targets"]})
+    return out
+
+
+def run(name: str, fe_rounds: int, seed: int) -> dict[str, Any]:
+    out = RUNS / name
+    cmd = [sys.executable, "-m", "multimorph.cli", "design",
+           str(ROOT / "examples" / f"target_{name}.toml"), "--fe-rounds", str(fe_rounds),
+           "--seed", str(seed), "--out", str(out), "--json"]
+    t0 = time.perf_counter()
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    dt = time.perf_counter() - t0
+    if proc.returncode not in (0, 3):
+        print(proc.stderr[-2000:], file=sys.stderr)
+        return {"target": name, "ok": False, "wall_time_s": dt, "exit": proc.returncode}
+    report = json.loads(proc.stdout)
+    return {"target": name, "ok": True, "wall_time_s": dt, "feasible": report["feasible"],
+            "fe_verified": report.get("fe_verified"), "fe_route": report.get("fe_route"),
+            "fe_rounds": len(report.get("fe_rounds", []))}
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--targets", default="", help="comma-separated target names")
+    ap.add_argument("--fe-rounds", type=int, default=2)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--table-only", action="store_true")
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args(argv)
+    names = (args.targets.split(",") if args.targets else
+             sorted(p.stem.removeprefix("target_") for p in
+                    (ROOT / "examples").glob("target_*.toml")))
+    runs = [] if args.table_only else [run(n, args.fe_rounds, args.seed) for n in names]
+    rows = [row for n in names for row in rows_of(n)]
+    if args.json:
+        print(json.dumps({"runs": runs, "rows": rows}, indent=2))
+        return 0
+    for r in runs:
+        print(f"{r['target']}: " + (f"exit {r['exit']}" if not r["ok"] else
+              f"designed {'feasible' if r['feasible'] else 'INFEASIBLE'}, "
+              f"{'FE-verified' if r['fe_verified'] else 'NOT FE-verified'} after "
+              f"{r['fe_rounds']} FE round(s) ({r['fe_route']} route), "
+              f"{r['wall_time_s'] / 60:.1f} min"))
+    print(f"{'target':<17} {'rnd':>3} {'stage':<9} {'Pc want/model/FE (kPa)':>24} "
+          f"{'Ph want/model/FE (kPa)':>24} {'motion want/model/FE':>22} FE meets")
+    for r in rows:
+        w, m, f = r["wanted"], r["model"], r["fe"]
+        pc = f"{_kpa(w['start_pressure'])}/{_kpa(m['start_pressure'])}/{_kpa(f['start_pressure'])}"
+        ph = f"{_kpa(w['end_pressure'])}/{_kpa(m['end_pressure'])}/{_kpa(f['end_pressure'])}"
+        mg = (f"{_mag(r['kind'], w['magnitude'])}/{_mag(r['kind'], m['magnitude'])}/"
+              f"{_mag(r['kind'], f['magnitude'])}")
+        print(f"{r['target']:<17} {r['round']:>3} {r['stage']:<9} {pc:>24} {ph:>24} "
+              f"{mg:>22} {'yes' if r['meets'] else 'no'}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
