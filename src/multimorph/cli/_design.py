@@ -17,6 +17,7 @@ import typer
 from multimorph.cli._common import console, emit_json, err_console, handle_errors, in_file
 from multimorph.cli._help import PlainHelpCommand
 from multimorph.cli._progress import progress
+from multimorph.cli._simulate import MODEL_WORDS, model_words
 
 __all__ = ["EXIT_INFEASIBLE", "design_command", "register"]
 
@@ -164,16 +165,29 @@ def design_command(
                                            "\nINFEASIBLE target: closest design only"))
         with atomic_output_dir(folder) as tmp:
             report = write_design_report(run, tmp, header=header, model=name)
+            _write_html(run, report, tmp, name)
         if as_json:
             emit_json({**report, "model": name, "out": str(folder)})
         else:
             _print_summary(result, run.robustness, folder, report["files"])
-            console.print(f"  cell model: {name}" + (
-                " (Ritz corrected against 3D FE; errors in docs/validation.md)"
-                if name.startswith("calibrated") else " (reduced model; Pc about 2 × the 3D FE's)"),
-                highlight=False)
+            console.print(f"  cell model: {MODEL_WORDS.get(name, name)}", highlight=False)
         if not result.feasible:
             raise typer.Exit(EXIT_INFEASIBLE)
+
+
+def _write_html(run: Any, report: dict[str, Any], folder: Path, model: str) -> None:
+    """``report.html`` beside the other files (added to the report's ``files``; report.json
+    is written again with it)."""
+    from multimorph.io import write_json
+    from multimorph.viz._design_report import design_report_html
+
+    device = run.device_result
+    text = (model_words(device.to_dict()) if device is not None
+            else MODEL_WORDS.get(model, model))
+    design_report_html(report, folder / "report.html", device_result=device,
+                       model_text=text)
+    report["files"].append("report.html")
+    write_json(folder / "report.json", report)
 
 
 def _print_summary(result: Any, rob: Any, folder: Path, files: list[str]) -> None:

@@ -107,6 +107,11 @@ def fem(
     around the shaft, measured by the twist angle of its free end; --compare sets the twist
     angle, axial stretch, Pc and Ph against the reduced model's module strains.
 
+    Writes summary.json, the CSV paths, curves.png, snapshots.png, the VTU series (.pvd),
+    the solid (STEP/STL), with --compare comparison.json and comparison.png, and
+    report.html (one page that opens offline: the FE curves, the model vs FE, the
+    deformed surface under a pressure slider, the run's statistics).
+
     Interrupting (Ctrl-C) keeps every converged point in <out>.resume; the same command
     again resumes from them (--restart starts afresh). The folder goes once the results
     are written.
@@ -148,7 +153,14 @@ def fem(
         console.print(f"[bold]{title}[/]{lines[0]}", highlight=False)
         for line in lines[1:]:  # table rows (indented) are not wrapped
             console.print(line, highlight=False, soft_wrap=line.startswith("  "))
-        console.print(f"files in {folder}/")
+        console.print(f"files in {folder}/: {_file_list(info['files'])}", highlight=False)
+
+
+def _file_list(files: list[str]) -> str:
+    """The files of a run, the VTU series as one count (it has a file per path point)."""
+    series = [f for f in files if f.endswith(".vtu")]
+    shown = [f for f in files if not f.endswith(".vtu")]
+    return ", ".join(shown) + (f" and {len(series)} VTU files" if series else "")
 
 
 def _job(spec: Path, table: dict[str, Any], *, mesh: str, element_size: str | None,

@@ -15,7 +15,7 @@ from multimorph.cli._common import console, emit_json, handle_errors, in_file, p
 from multimorph.cli._help import PlainHelpCommand
 from multimorph.cli._progress import progress
 
-__all__ = ["register", "simulate"]
+__all__ = ["MODEL_WORDS", "model_words", "register", "simulate"]
 
 #: Files written into the output folder (and ``morph.gif`` with ``--frames`` > 0).
 FILES = ("summary.json", "curves.csv", "sequence.png", "shapes.png", "report.html")
@@ -84,13 +84,17 @@ def _write(result: object, folder: Path, files: list[str], pressures: list[float
                                 done, total, phase="animation", detail=f"{done}/{total} frames"))
 
 
+#: Each cell model in words: what it is and how far it is from 3D FE.
+MODEL_WORDS = {"calibrated": "calibrated (Ritz corrected against 3D FE; errors in "
+                             "docs/validation.md)",
+               "calibrated-fast": "calibrated-fast (Ritz corrected against 3D FE on emulated "
+                                  "Ritz features; errors in docs/validation.md)",
+               "ritz": "ritz (reduced model; Pc about 2 × the 3D FE's)", "fe": "fe (3D FE)"}
+
+
 def model_words(summary: dict[str, Any]) -> str:
     """The cell model(s) of a device result, and how far each is from 3D FE."""
-    words = {"calibrated": "calibrated (Ritz corrected against 3D FE; errors in "
-                           "docs/validation.md)",
-             "calibrated-fast": "calibrated-fast (Ritz corrected against 3D FE on emulated "
-                                "Ritz features; errors in docs/validation.md)",
-             "ritz": "ritz (reduced model; Pc about 2 × the 3D FE's)", "fe": "fe (3D FE)"}
+    words = MODEL_WORDS
     fell_back = [n for n, m in summary["modules"].items()
                  if (m.get("calibration") or {}).get("inside") is False]
     models = summary["model"] if isinstance(summary["model"], list) else [summary["model"]]

@@ -28,7 +28,9 @@ from multimorph.fe.analyses import (
 from multimorph.fe.mesh import device_pieces, hex_boundary
 from multimorph.fe.report._cad import export_box_pieces, export_cell_solid, write_surface_stl
 from multimorph.fe.report._comparison import comparison_curves, plot_comparison
+from multimorph.fe.report._html import write_report_html
 from multimorph.fe.report._plots import plot_curves, plot_device, plot_snapshots, plot_twist
+from multimorph.fe.report._text import describe
 from multimorph.io import write_json
 
 __all__ = ["TWISTING_CAD_NOTE", "summary", "write_comparison_figure", "write_device_csv",
@@ -288,9 +290,11 @@ def write_twist_outputs(result: FETwistResult, folder: Path, *, vtu: bool = True
 
 
 # ------------------------------------------------------------------ one run of any kind
-def write_outcome(outcome: FEOutcome, folder: Path, *, vtu: bool = True) -> dict[str, Any]:
+def write_outcome(outcome: FEOutcome, folder: Path, *, vtu: bool = True,
+                  html: bool = True) -> dict[str, Any]:
     """Write every file of an FE run (:func:`~multimorph.fe.analyses.run_job`) into
-    ``folder``; returns its JSON summary, with ``files`` (the file names written)."""
+    ``folder``, with ``html`` its ``report.html`` (:func:`write_report_html`); returns its
+    JSON summary, with ``files`` (the file names written)."""
     folder = Path(folder)
     result, comparison = outcome.result, outcome.comparison
     if isinstance(result, FEResult):
@@ -317,6 +321,10 @@ def write_outcome(outcome: FEOutcome, folder: Path, *, vtu: bool = True) -> dict
     if comparison is not None:
         write_comparison_figure(outcome, folder / "comparison.png")
         files.append("comparison.png")
+    if html:
+        title, lines = describe(outcome, info)
+        write_report_html(outcome, folder / "report.html", title=title, lines=lines)
+        files.append("report.html")
     info["files"] = files
     return info
 
