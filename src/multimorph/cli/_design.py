@@ -193,6 +193,8 @@ def _write_html(run: Any, report: dict[str, Any], folder: Path, model: str) -> N
 def _print_summary(result: Any, rob: Any, folder: Path, files: list[str]) -> None:
     import math
 
+    from multimorph.names import kind_name
+
     t = result.target
     if result.feasible:
         console.print(f"[bold green]feasible[/]: {t.name} — {result.evaluations} model "
@@ -221,7 +223,8 @@ def _print_summary(result: Any, rob: Any, folder: Path, files: list[str]) -> Non
                    else f"{math.degrees(found.magnitude):.3g} deg")
             pc = "—" if found.start is None else f"{found.start / 1e3:.4g}"
             ph = "—" if found.end is None else f"{found.end / 1e3:.4g}"
-            console.print(f"  {stage.name:<12} {stage.kind:<8} Pc {pc} kPa, Ph {ph} kPa "
+            console.print(f"  {stage.name:<12} {kind_name(stage.kind):<10} Pc {pc} kPa, "
+                          f"Ph {ph} kPa "
                           f"(wanted {stage.end_pressure / 1e3:.4g}), {mag}, {found.n_cells} "
                           f"cells", highlight=False)
     if result.rounds:

@@ -22,19 +22,11 @@ import os
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+from multimorph.names import kind_name
 from multimorph.viz._html import Figure, kpa, table, write_page
 from multimorph.viz._report import device_blocks
 
-__all__ = ["design_report_html", "fe_verification_blocks", "stage_kind", "target_table"]
-
-#: A target stage's kind (its motion) by the module kind that makes it: the name printed.
-STAGE_KIND_NAMES = {"bend": "bending", "twist": "twisting", "stretch": "stretching"}
-
-
-def stage_kind(kind: str) -> str:
-    """The printed name of a target stage's kind: the module kind (``bending``,
-    ``twisting``, ``stretching``) for the motion (``bend``, ``twist``, ``stretch``)."""
-    return STAGE_KIND_NAMES.get(kind, kind)
+__all__ = ["design_report_html", "fe_verification_blocks", "target_table"]
 
 
 def _motion(kind: str, value: float | None) -> str:
@@ -61,7 +53,7 @@ def target_table(report: Mapping[str, Any]) -> str:
     for stage in report["stages"]:
         got = best.get(stage["name"], {})
         sf = got.get("safety_factor")
-        rows.append([stage["name"], stage_kind(stage["kind"]), got.get("cells", "—"),
+        rows.append([stage["name"], kind_name(stage["kind"]), got.get("cells", "—"),
                      kpa(stage["start_pressure"]), kpa(got.get("start_pressure")),
                      kpa(stage["end_pressure"]), kpa(got.get("end_pressure")),
                      _motion(stage["kind"], abs(stage["magnitude"])),
@@ -109,7 +101,7 @@ def fe_verification_blocks(report: Mapping[str, Any], model: str) -> list[str]:
         for stage in rd["stages"]:
             kind, want = stage["kind"], stage["wanted"]
             mod, fe = stage["search_model"], stage["check_model"]
-            rows.append([rd["round"], stage["name"], stage_kind(kind),
+            rows.append([rd["round"], stage["name"], kind_name(kind),
                          kpa(want["start_pressure"]), kpa(mod["start_pressure"]),
                          kpa(fe["start_pressure"]),
                          _relative(mod["start_pressure"], fe["start_pressure"]),
