@@ -14,7 +14,14 @@ from typing import Annotated, Any
 
 import typer
 
-from multimorph.cli._common import console, emit_json, err_console, handle_errors, in_file
+from multimorph.cli._common import (
+    console,
+    default_out,
+    emit_json,
+    err_console,
+    handle_errors,
+    in_file,
+)
 from multimorph.cli._help import PlainHelpCommand
 from multimorph.cli._progress import progress
 from multimorph.cli._simulate import MODEL_WORDS, model_words
@@ -130,7 +137,7 @@ def design_command(
             ok, why = fe_available()
             if not ok:
                 raise MultimorphError(f"--verify-fe: {why}")
-        folder = out if out is not None else Path("multimorph-out") / f"design-{target.stem}"
+        folder = out if out is not None else default_out("design", target)
         hold.enter_context(claim_output(folder))
         calibrated = name.startswith("calibrated")
         if budget is None:

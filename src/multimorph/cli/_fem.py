@@ -10,7 +10,7 @@ from typing import Annotated, Any
 
 import typer
 
-from multimorph.cli._common import console, emit_json, err_console, handle_errors
+from multimorph.cli._common import console, default_out, emit_json, err_console, handle_errors
 from multimorph.cli._help import PlainHelpCommand
 from multimorph.cli._progress import progress
 
@@ -134,7 +134,7 @@ def fem(
                           field="--model")
         job = _job(spec, table, compare=compare, **options)
         suffix = f"-{module}" if job.kind == "twisting" else ""
-        folder = out if out is not None else Path("multimorph-out") / f"fem-{spec.stem}{suffix}"
+        folder = out if out is not None else default_out("fem", spec, suffix)
         checkpoint = PathCheckpoint.beside(folder, spec.read_bytes(), options)
         if restart:
             checkpoint.clear()

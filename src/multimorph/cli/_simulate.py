@@ -11,14 +11,27 @@ import numpy as np
 import typer
 from rich.markup import escape
 
-from multimorph.cli._common import console, emit_json, handle_errors, in_file, pressure_option
+from multimorph.cli._common import (
+    console,
+    default_out,
+    emit_json,
+    handle_errors,
+    in_file,
+    pressure_option,
+)
 from multimorph.cli._help import PlainHelpCommand
 from multimorph.cli._progress import progress
 
-__all__ = ["MODEL_WORDS", "model_words", "register", "simulate"]
+__all__ = ["CSV_COLUMNS", "MODEL_WORDS", "model_words", "register", "simulate"]
 
 #: Files written into the output folder (and ``morph.gif`` with ``--frames`` > 0).
 FILES = ("summary.json", "curves.csv", "sequence.png", "shapes.png", "report.html")
+#: Columns of curves.csv: ``<quantity>_<unit>`` as FE's CSV files name them (the first
+#: six are the older names, kept in their places: bend = curvature, twist = twist rate,
+#: stretch = axial stretch, measure = the module's own motion in SI).
+CSV_COLUMNS = ("module", "pressure_pa", "bend_1_per_m", "twist_rad_per_m", "stretch",
+               "measure", "pressure_kpa", "curvature_1_per_m", "twist_rate_rad_per_m",
+               "axial_stretch", "bend_angle_deg", "twist_angle_deg")
 #: Pressures of report.html's slider: ``--frames`` of them, at most this many (every one is
 #: stored in the page), 12 without an animation.
 MAX_REPORT_FRAMES = 48
@@ -65,10 +78,12 @@ def _write(result: object, folder: Path, files: list[str], pressures: list[float
         write_json(tmp / "summary.json", summary)
         with open(tmp / "curves.csv", "w", newline="") as fh:
             w = csv.writer(fh)
-            w.writerow(["module", "pressure_pa", "bend_1_per_m", "twist_rad_per_m",
-                        "stretch", "measure"])
+            w.writerow(CSV_COLUMNS)
             for name, s in result.strains.items():  # type: ignore[attr-defined]
+                length = s.module.length
                 for row in zip(s.pressure, s.bend, s.twist, s.stretch, s.measure,
+                               s.pressure / 1e3, s.bend, s.twist, s.stretch,
+                               np.degrees(s.bend * length), np.degrees(s.twist * length),
                                strict=True):
                     w.writerow([name, *(f"{x:.8g}" for x in row)])
         update(0, 2, phase="figures", detail="sequence.png, shapes.png")
@@ -150,7 +165,7 @@ def simulate(
             raise SpecError(f"{spec}: device.pmax: missing; give the supply pressure in "
                             "[device] (pmax = \"60 kPa\") or on the command line (--pmax)")
         pressures = _snapshot_pressures(snapshots, p_max)
-        folder = out if out is not None else Path("multimorph-out") / f"simulate-{spec.stem}"
+        folder = out if out is not None else default_out("simulate", spec)
         files = list(FILES) + (["morph.gif"] if frames else [])
         with claim_output(folder, files=files), progress("simulate", quiet=as_json) as update:
             result = simulate_device(
