@@ -26,9 +26,16 @@ from multimorph.cli._help import PlainHelpCommand
 from multimorph.cli._progress import progress
 from multimorph.cli._simulate import MODEL_WORDS, model_words
 
-__all__ = ["EXIT_INFEASIBLE", "design_command", "register"]
+__all__ = ["EXIT_INFEASIBLE", "FILES", "SOMETIMES", "design_command", "register"]
 
 EXIT_INFEASIBLE = 3
+#: Files every design run writes into its output folder (with its report's ``files``).
+FILES = ("report.json", "report.md", "report.html", "convergence.png")
+#: Files a run writes when it has them: the best device (``closest_device.toml`` when the
+#: target is infeasible) and its sequence, the robustness (``--robustness`` > 0) and the FE
+#: verification (``--verify-fe``) figures.
+SOMETIMES = ("device.toml", "closest_device.toml", "sequence.png", "robustness.png",
+             "fe_verification.png")
 #: Option limits: a batch of population × stages cells is traced at once, and every
 #: evaluation or sample is a traced path (~0.1 s each on one core).
 MAX_BUDGET = 10_000_000

@@ -14,7 +14,17 @@ from multimorph.cli._common import console, default_out, emit_json, err_console,
 from multimorph.cli._help import PlainHelpCommand
 from multimorph.cli._progress import progress
 
-__all__ = ["fem", "register"]
+__all__ = ["FILES", "SOMETIMES", "fem", "register"]
+
+#: Files every FE run writes into its output folder (with its JSON's ``files``).
+FILES = ("summary.json", "curves.png", "snapshots.png", "report.html")
+#: Files of one kind of run: a cell or a twisting module ``path.csv``, a device
+#: ``curves.csv`` and ``tip.csv``; the solid of a cell or device (a device with a twisting
+#: module: STL only); with ``--compare`` the comparison; with ``--vtu`` (default) the series
+#: ``<cell|device|module>.pvd`` and one ``_NNNN.vtu`` per path point.
+SOMETIMES = ("path.csv", "curves.csv", "tip.csv", "cell.step", "cell.stl", "device.step",
+             "device.stl", "comparison.json", "comparison.png", "cell.pvd", "device.pvd",
+             "module.pvd")
 
 
 @contextlib.contextmanager

@@ -13,6 +13,9 @@ from multimorph.cli._help import PlainHelpCommand, PlainHelpGroup
 
 __all__ = ["material_app", "register"]
 
+#: Files ``material fit`` writes into its output folder.
+FIT_FILES = ("fit.json", "fit.png")
+
 material_app = typer.Typer(
     cls=PlainHelpGroup,
     help="Hyperelastic materials: the built-in library and fits to tensile data.\n\n"
@@ -172,7 +175,7 @@ def material_fit(
         folder = out if out is not None else default_out("fit", file)
         for note in data.notes:
             warn(f"{file}: {note}")
-        with claim_output(folder, files=("fit.json", "fit.png")):
+        with claim_output(folder, files=FIT_FILES):
             res = fit_material(model, data, order=order, residual=residual,
                                stretch_range=stretch_max)
             from multimorph.viz._fitplot import plot_fit

@@ -11,7 +11,11 @@ from multimorph.cli._common import console, default_out, emit_json, err_console,
 from multimorph.cli._help import PlainHelpCommand
 from multimorph.cli._progress import progress
 
-__all__ = ["register", "sweep"]
+__all__ = ["FILES", "register", "sweep", "with_model"]
+
+#: What a sweep folder holds (multimorph.sweep's store): the manifest, the spec as given,
+#: the design table, one part per finished batch and, once complete, every result merged.
+FILES = ("sweep.json", "spec.toml", "designs.zarr", "parts/", "results.zarr")
 
 
 def sweep(
