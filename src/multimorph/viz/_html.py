@@ -25,7 +25,7 @@ COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b")
 STYLE = """body{font-family:system-ui,sans-serif;max-width:1100px;margin:1em auto;
 padding:0 1em;color:#222}table{border-collapse:collapse;margin:.5em 0}
 td,th{border:1px solid #ccc;padding:.25em .6em;text-align:left}th{background:#f2f2f2}
-.note{color:#b00}"""
+.note{color:#b00}pre{white-space:pre-wrap}"""
 
 
 def plotly() -> Any:
