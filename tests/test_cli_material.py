@@ -181,3 +181,43 @@ def test_duplicated_rows_are_refused_not_fitted_with_false_precision(
     assert r.exit_code == 2
     assert f"ds30.csv, line {head + 3}: repeats line {head + 2} exactly" in r.stderr
     assert not (tmp_path / "o").exists()
+
+
+def test_demo_prints_a_short_plain_summary(app: typer.Typer, runner: CliRunner,
+                                           tmp_path: Path,
+                                           monkeypatch: pytest.MonkeyPatch) -> None:
+    from multimorph.materials import build_library
+
+    subset = {k: build_library.MARECHAL[k] for k in ("dragon_skin_30", "rtv615")}
+    monkeypatch.setattr(build_library, "MARECHAL", subset)
+    out = tmp_path / "demo"
+    r = runner.invoke(app, ["demo", "--out", str(out), "--no-device"])
+    assert r.exit_code == 0, r.output
+    lines = r.stdout.strip().splitlines()
+    assert lines[0].startswith("Fitted Gent and Yeoh to 2 built-in silicones")
+    assert "|" not in r.stdout and "#" not in r.stdout  # no raw Markdown
+    assert lines[-1].startswith(f"Files in {out}/: report.md")
+    assert "| rtv615 |" in (out / "report.md").read_text()  # the Markdown stays in the file
+
+
+def test_the_demo_summary_names_the_model_of_its_numbers() -> None:
+    report = {"materials": {"stretch_max": 4.0, "materials": [
+        {"gent": {"relative_rms": 0.1}}, {"gent": {"relative_rms": 0.2}}]},
+        "device": {"device": "gripper", "pmax": 60e3, "order": ["fingers", "twister"],
+                   "module_models": {"fingers": "calibrated", "twister": "calibrated"},
+                   "windows": {"fingers": {"critical_pressure": 25e3,
+                                           "hardening_pressure": 30e3},
+                               "twister": {"critical_pressure": 31e3,
+                                           "hardening_pressure": None}},
+                   "margins": [{"earlier": "fingers", "later": "twister", "margin": 1e3,
+                                "verdict": "matched"}]}}
+    lines = _demo.summary_lines(report, Path("out"))
+    assert "Gent relative RMS median 15 % (from 10 to 20 %)" in lines[0]
+    assert "with the calibrated cell model (calibrated: the Ritz model corrected" in lines[1]
+    assert "ritz" not in lines[1]  # only the models that made the numbers
+    assert lines[2] == "  fingers (calibrated model): Pc 25.0 kPa, Ph 30.0 kPa"
+    assert "Ph not reached" in lines[3]
+    assert lines[4] == ("  hand-over fingers → twister: matched (Pc later − Ph earlier = "
+                        "+1.0 kPa)")
+    assert lines[-1] == ("Open out/gripper/report.html for the device in 3D with a pressure "
+                         "slider (works offline).")

@@ -1,6 +1,8 @@
 """``multimorph simulate``: files and JSON for a device; malformed specs fail cleanly."""
 
+import csv
 import json
+import math
 
 import pytest
 import typer
@@ -35,6 +37,15 @@ def test_simulate_writes_files_and_json(app, tmp_path):
     assert d["notes"] == []  # neither coils nor overlaps (tests/test_device_pictures.py)
     assert {p.name for p in out.iterdir()} == {"summary.json", "curves.csv", "sequence.png",
                                               "shapes.png", "morph.gif", "report.html"}
+    # curves.csv: the older columns first, then the names FE's CSV files use
+    with open(out / "curves.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    assert list(rows[0]) == list(_simulate.CSV_COLUMNS)
+    last = [row for row in rows if row["module"] == "base"][-1]
+    assert float(last["pressure_kpa"]) == pytest.approx(float(last["pressure_pa"]) / 1e3)
+    assert last["curvature_1_per_m"] == last["bend_1_per_m"]
+    # base: 4 cells of 5 mm at κ = 40 1/m: 0.8 rad
+    assert float(last["bend_angle_deg"]) == pytest.approx(math.degrees(0.8), rel=1e-6)
 
 
 @pytest.mark.parametrize(("edit", "message"), [

@@ -82,3 +82,16 @@ def test_fingers_hang_from_a_hub_and_series_modules_do_not(straight) -> None:
     np.testing.assert_allclose(hub.frame[:3, 3], [0.0, 0.02, 0.0], atol=1e-15)  # base's end
     assert [b.key for b in fingers.bodies] == ["base", "tip#0", "tip#1", "tip#2"]
     assert straight.bodies(0.0).hubs == ()
+
+
+def test_a_twisting_module_in_orange_draws_its_lighter_shaft() -> None:
+    """The shaft is the module's colour lightened: a channel at 1 (the second module's
+    orange) stays at 1 (it overflowed and matplotlib refused the picture)."""
+    text = SPEC.replace('kind = "bending"\ncell = "hard"\ncells = 4\norientation = "180 deg"',
+                        'kind = "twisting"\ncell = "hard"\ncells = 4\ntilt = "30 deg"\n'
+                        'shaft_radius = "2 mm"')
+    result = simulated(text)
+    assert [m.kind for m in result.device.modules] == ["bending", "twisting"]
+    _, faces, _ = body_polygons(result.bodies(60e3), {"base": "tab:blue", "tip": "tab:orange"})
+    assert np.max(faces) <= 1.0 and np.min(faces) >= 0.0
+    shapes_figure(result, [0.0, 60e3])  # draws

@@ -421,7 +421,7 @@ def test_cli_fem_device_writes_its_files(tmp_path: Path, monkeypatch: pytest.Mon
     out = tmp_path / "out"
     info = _run_fem_json("fe_device.toml", "10 kPa", out, monkeypatch)
     for f in ("summary.json", "curves.csv", "tip.csv", "curves.png", "snapshots.png",
-              "device.step", "device.stl", "device.pvd", "device_0000.vtu"):
+              "device.step", "device.stl", "device.pvd", "device_0000.vtu", "report.html"):
         assert f in info["files"] and (out / f).exists(), f
     for f in ("curves.png", "snapshots.png"):
         assert (out / f).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

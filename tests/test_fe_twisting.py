@@ -260,7 +260,8 @@ def test_cli_fem_module(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None
     assert mod["final"]["twist_angle_deg"] < 0
     # the peak stretch sits in a strip's wall (the chambers balloon), not in the shaft
     assert mod["final"]["peak_region"] == "wall" and len(mod["final"]["peak_location_m"]) == 3
-    for f in ("summary.json", "path.csv", "module.pvd", "curves.png", "snapshots.png"):
+    for f in ("summary.json", "path.csv", "module.pvd", "curves.png", "snapshots.png",
+              "report.html"):
         assert (out / f).exists() and f in info["files"]
     for f in ("curves.png", "snapshots.png"):
         assert (out / f).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -10,6 +10,7 @@ import typer
 from multimorph.cli._common import (
     check_tables,
     console,
+    default_out,
     emit_json,
     handle_errors,
     in_file,
@@ -51,6 +52,7 @@ def cell_summary(response: Any) -> dict[str, Any]:
         "unloading": {"pressure": response.unloading.pressure.tolist(),
                       "curvature": response.unloading.curvature.tolist()},
         "max_bend_angle": float(np.max(path.curvature * d)),
+        "max_bend_angle_deg": float(np.degrees(np.max(path.curvature * d))),
         "backend": response.backend,
         "model": response.meta.get("model", response.backend),
         **({"calibration": response.meta["calibration"]}
@@ -150,7 +152,7 @@ def cell(
             geometry = CellGeometry.from_spec(table["cell"])
         p_max = (geometry.mu if pmax is None
                  else pressure_option(pmax, "--pmax", mu=geometry.mu))
-        folder = out if out is not None else Path("multimorph-out") / f"cell-{spec.stem}"
+        folder = out if out is not None else default_out("cell", spec)
         with claim_output(folder, files=FILES):
             response = cell_model(name)(geometry, p_max)
             data = cell_summary(response)
@@ -179,8 +181,8 @@ def cell(
                       f"max axial stretch {max(data['axial_stretch']):.4g}")
     else:
         console.print(f"  max curvature {max(data['curvature']):.4g} 1/m, bend angle "
-                      f"{data['max_bend_angle']:.3g} rad per cell")
-    console.print(f"  wrote {folder}/response.json, {folder}/curvature.png")
+                      f"{data['max_bend_angle_deg']:.3g} deg per cell")
+    console.print(f"  files in {folder}: {', '.join(FILES)}", highlight=False)
 
 
 def register(app: typer.Typer) -> None:

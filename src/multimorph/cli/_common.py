@@ -6,6 +6,7 @@ import json
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from pathlib import Path
 from typing import Any, TypeVar
 
 import typer
@@ -15,15 +16,23 @@ from rich.markup import escape
 from multimorph.errors import MultimorphError
 from multimorph.io import to_jsonable
 
-__all__ = ["EXIT_ERROR", "check_tables", "console", "emit_json", "err_console", "fail",
-           "handle_errors", "in_file", "pressure_option", "warn"]
+__all__ = ["EXIT_ERROR", "OUT_ROOT", "check_tables", "console", "default_out", "emit_json",
+           "err_console", "fail", "handle_errors", "in_file", "pressure_option", "warn"]
 
 EXIT_ERROR = 2
+#: Where a command writes when no --out is given: ``OUT_ROOT/<command>-<spec stem>``.
+OUT_ROOT = "multimorph-out"
 
 console = Console()
 err_console = Console(stderr=True)
 
 F = TypeVar("F", bound=Callable[..., Any])
+
+
+def default_out(command: str, spec: Any, suffix: str = "") -> Path:
+    """The output folder of ``command`` run on the file ``spec`` without ``--out``:
+    ``multimorph-out/<command>-<spec stem><suffix>`` (one scheme for every command)."""
+    return Path(OUT_ROOT) / f"{command}-{Path(spec).stem}{suffix}"
 
 
 def emit_json(data: Any) -> None:

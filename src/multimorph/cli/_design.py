@@ -14,13 +14,28 @@ from typing import Annotated, Any
 
 import typer
 
-from multimorph.cli._common import console, emit_json, err_console, handle_errors, in_file
+from multimorph.cli._common import (
+    console,
+    default_out,
+    emit_json,
+    err_console,
+    handle_errors,
+    in_file,
+)
 from multimorph.cli._help import PlainHelpCommand
 from multimorph.cli._progress import progress
+from multimorph.cli._simulate import MODEL_WORDS, model_words
 
-__all__ = ["EXIT_INFEASIBLE", "design_command", "register"]
+__all__ = ["EXIT_INFEASIBLE", "FILES", "SOMETIMES", "design_command", "register"]
 
 EXIT_INFEASIBLE = 3
+#: Files every design run writes into its output folder (with its report's ``files``).
+FILES = ("report.json", "report.md", "report.html", "convergence.png")
+#: Files a run writes when it has them: the best device (``closest_device.toml`` when the
+#: target is infeasible) and its sequence, the robustness (``--robustness`` > 0) and the FE
+#: verification (``--verify-fe``) figures.
+SOMETIMES = ("device.toml", "closest_device.toml", "sequence.png", "robustness.png",
+             "fe_verification.png")
 #: Option limits: a batch of population × stages cells is traced at once, and every
 #: evaluation or sample is a traced path (~0.1 s each on one core).
 MAX_BUDGET = 10_000_000
@@ -142,7 +157,7 @@ def design_command(
             ok, why = fe_available()
             if not ok:
                 raise MultimorphError(f"--verify-fe: {why}")
-        folder = out if out is not None else Path("multimorph-out") / f"design-{target.stem}"
+        folder = out if out is not None else default_out("design", target)
         hold.enter_context(claim_output(folder))
         calibrated = name.startswith("calibrated")
         if budget is None:
@@ -178,20 +193,35 @@ def design_command(
                                            "\nINFEASIBLE target: closest design only"))
         with atomic_output_dir(folder) as tmp:
             report = write_design_report(run, tmp, header=header, model=name)
+            _write_html(run, report, tmp, name)
         if as_json:
             emit_json({**report, "model": name, "out": str(folder)})
         else:
             _print_summary(result, run.robustness, folder, report["files"])
-            console.print(f"  cell model: {name}" + (
-                " (Ritz corrected against 3D FE; errors in docs/validation.md)"
-                if name.startswith("calibrated") else " (reduced model; Pc about 2 × the 3D FE's)"),
-                highlight=False)
+            console.print(f"  cell model: {MODEL_WORDS.get(name, name)}", highlight=False)
         if not result.feasible:
             raise typer.Exit(EXIT_INFEASIBLE)
 
 
+def _write_html(run: Any, report: dict[str, Any], folder: Path, model: str) -> None:
+    """``report.html`` beside the other files (added to the report's ``files``; report.json
+    is written again with it)."""
+    from multimorph.io import write_json
+    from multimorph.viz._design_report import design_report_html
+
+    device = run.device_result
+    text = (model_words(device.to_dict()) if device is not None
+            else MODEL_WORDS.get(model, model))
+    design_report_html(report, folder / "report.html", device_result=device,
+                       model_text=text)
+    report["files"].append("report.html")
+    write_json(folder / "report.json", report)
+
+
 def _print_summary(result: Any, rob: Any, folder: Path, files: list[str]) -> None:
     import math
+
+    from multimorph.names import kind_name
 
     t = result.target
     if result.feasible:
@@ -221,7 +251,8 @@ def _print_summary(result: Any, rob: Any, folder: Path, files: list[str]) -> Non
                    else f"{math.degrees(found.magnitude):.3g} deg")
             pc = "—" if found.start is None else f"{found.start / 1e3:.4g}"
             ph = "—" if found.end is None else f"{found.end / 1e3:.4g}"
-            console.print(f"  {stage.name:<12} {stage.kind:<8} Pc {pc} kPa, Ph {ph} kPa "
+            console.print(f"  {stage.name:<12} {kind_name(stage.kind):<10} Pc {pc} kPa, "
+                          f"Ph {ph} kPa "
                           f"(wanted {stage.end_pressure / 1e3:.4g}), {mag}, {found.n_cells} "
                           f"cells", highlight=False)
     if result.rounds:

@@ -10,11 +10,21 @@ from typing import Annotated, Any
 
 import typer
 
-from multimorph.cli._common import console, emit_json, err_console, handle_errors
+from multimorph.cli._common import console, default_out, emit_json, err_console, handle_errors
 from multimorph.cli._help import PlainHelpCommand
 from multimorph.cli._progress import progress
 
-__all__ = ["fem", "register"]
+__all__ = ["FILES", "SOMETIMES", "fem", "register"]
+
+#: Files every FE run writes into its output folder (with its JSON's ``files``).
+FILES = ("summary.json", "curves.png", "snapshots.png", "report.html")
+#: Files of one kind of run: a cell or a twisting module ``path.csv``, a device
+#: ``curves.csv`` and ``tip.csv``; the solid of a cell or device (a device with a twisting
+#: module: STL only); with ``--compare`` the comparison; with ``--vtu`` (default) the series
+#: ``<cell|device|module>.pvd`` and one ``_NNNN.vtu`` per path point.
+SOMETIMES = ("path.csv", "curves.csv", "tip.csv", "cell.step", "cell.stl", "device.step",
+             "device.stl", "comparison.json", "comparison.png", "cell.pvd", "device.pvd",
+             "module.pvd")
 
 
 @contextlib.contextmanager
@@ -107,6 +117,11 @@ def fem(
     around the shaft, measured by the twist angle of its free end; --compare sets the twist
     angle, axial stretch, Pc and Ph against the reduced model's module strains.
 
+    Writes summary.json, the CSV paths, curves.png, snapshots.png, the VTU series (.pvd),
+    the solid (STEP/STL), with --compare comparison.json and comparison.png, and
+    report.html (one page that opens offline: the FE curves, the model vs FE, the
+    deformed surface under a pressure slider, the run's statistics).
+
     Interrupting (Ctrl-C) keeps every converged point in <out>.resume; the same command
     again resumes from them (--restart starts afresh). The folder goes once the results
     are written.
@@ -129,7 +144,7 @@ def fem(
                           field="--model")
         job = _job(spec, table, compare=compare, **options)
         suffix = f"-{module}" if job.kind == "twisting" else ""
-        folder = out if out is not None else Path("multimorph-out") / f"fem-{spec.stem}{suffix}"
+        folder = out if out is not None else default_out("fem", spec, suffix)
         checkpoint = PathCheckpoint.beside(folder, spec.read_bytes(), options)
         if restart:
             checkpoint.clear()
@@ -148,7 +163,14 @@ def fem(
         console.print(f"[bold]{title}[/]{lines[0]}", highlight=False)
         for line in lines[1:]:  # table rows (indented) are not wrapped
             console.print(line, highlight=False, soft_wrap=line.startswith("  "))
-        console.print(f"files in {folder}/")
+        console.print(f"files in {folder}/: {_file_list(info['files'])}", highlight=False)
+
+
+def _file_list(files: list[str]) -> str:
+    """The files of a run, the VTU series as one count (it has a file per path point)."""
+    series = [f for f in files if f.endswith(".vtu")]
+    shown = [f for f in files if not f.endswith(".vtu")]
+    return ", ".join(shown) + (f" and {len(series)} VTU files" if series else "")
 
 
 def _job(spec: Path, table: dict[str, Any], *, mesh: str, element_size: str | None,

@@ -8,10 +8,13 @@ from typing import Annotated, Any
 
 import typer
 
-from multimorph.cli._common import console, emit_json, handle_errors, warn
+from multimorph.cli._common import console, default_out, emit_json, handle_errors, warn
 from multimorph.cli._help import PlainHelpCommand, PlainHelpGroup
 
 __all__ = ["material_app", "register"]
+
+#: Files ``material fit`` writes into its output folder.
+FIT_FILES = ("fit.json", "fit.png")
 
 material_app = typer.Typer(
     cls=PlainHelpGroup,
@@ -24,9 +27,7 @@ material_app = typer.Typer(
 def _fmt_param(value: float, unit: str) -> str:
     if unit != "Pa":
         return f"{value:.4g}"
-    if abs(value) >= 1e6:
-        return f"{value / 1e6:.4g} MPa"
-    return f"{value / 1e3:.4g} kPa"
+    return f"{value / 1e3:.4g} kPa"  # kPa throughout (silicones: tens to hundreds)
 
 
 def _fmt_pct(x: float | None) -> str:
@@ -171,10 +172,10 @@ def material_fit(
         data = read_test_data(file, case=case, format=fmt, specimen=specimen)
         if stretch_max is not None:
             _check_range(data, law, stretch_max, residual)
-        folder = out if out is not None else Path("multimorph-out") / f"fit-{file.stem}"
+        folder = out if out is not None else default_out("fit", file)
         for note in data.notes:
             warn(f"{file}: {note}")
-        with claim_output(folder, files=("fit.json", "fit.png")):
+        with claim_output(folder, files=FIT_FILES):
             res = fit_material(model, data, order=order, residual=residual,
                                stretch_range=stretch_max)
             from multimorph.viz._fitplot import plot_fit

@@ -10,7 +10,11 @@ import typer
 from multimorph.cli._common import console, emit_json, fail, handle_errors
 from multimorph.cli._help import PlainHelpCommand, PlainHelpGroup
 
-__all__ = ["plot_app", "register"]
+__all__ = ["MAP_FILES", "plot_app", "register"]
+
+#: Figures ``plot map`` writes into RESULTS/maps (``<x>``, ``<y>``: the parameters'
+#: names; the map over two parameters only with a second one).
+MAP_FILES = ("families_<x>.png", "pc_vs_<x>.png", "pc_map_<x>__<y>.png")
 
 plot_app = typer.Typer(cls=PlainHelpGroup, help="Plots from stored results.",
                        no_args_is_help=True)

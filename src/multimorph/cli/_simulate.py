@@ -11,14 +11,27 @@ import numpy as np
 import typer
 from rich.markup import escape
 
-from multimorph.cli._common import console, emit_json, handle_errors, in_file, pressure_option
+from multimorph.cli._common import (
+    console,
+    default_out,
+    emit_json,
+    handle_errors,
+    in_file,
+    pressure_option,
+)
 from multimorph.cli._help import PlainHelpCommand
 from multimorph.cli._progress import progress
 
-__all__ = ["register", "simulate"]
+__all__ = ["CSV_COLUMNS", "MODEL_WORDS", "model_words", "register", "simulate"]
 
 #: Files written into the output folder (and ``morph.gif`` with ``--frames`` > 0).
 FILES = ("summary.json", "curves.csv", "sequence.png", "shapes.png", "report.html")
+#: Columns of curves.csv: ``<quantity>_<unit>`` as FE's CSV files name them (the first
+#: six are the older names, kept in their places: bend = curvature, twist = twist rate,
+#: stretch = axial stretch, measure = the module's own motion in SI).
+CSV_COLUMNS = ("module", "pressure_pa", "bend_1_per_m", "twist_rad_per_m", "stretch",
+               "measure", "pressure_kpa", "curvature_1_per_m", "twist_rate_rad_per_m",
+               "axial_stretch", "bend_angle_deg", "twist_angle_deg")
 #: Pressures of report.html's slider: ``--frames`` of them, at most this many (every one is
 #: stored in the page), 12 without an animation.
 MAX_REPORT_FRAMES = 48
@@ -65,10 +78,12 @@ def _write(result: object, folder: Path, files: list[str], pressures: list[float
         write_json(tmp / "summary.json", summary)
         with open(tmp / "curves.csv", "w", newline="") as fh:
             w = csv.writer(fh)
-            w.writerow(["module", "pressure_pa", "bend_1_per_m", "twist_rad_per_m",
-                        "stretch", "measure"])
+            w.writerow(CSV_COLUMNS)
             for name, s in result.strains.items():  # type: ignore[attr-defined]
+                length = s.module.length
                 for row in zip(s.pressure, s.bend, s.twist, s.stretch, s.measure,
+                               s.pressure / 1e3, s.bend, s.twist, s.stretch,
+                               np.degrees(s.bend * length), np.degrees(s.twist * length),
                                strict=True):
                     w.writerow([name, *(f"{x:.8g}" for x in row)])
         update(0, 2, phase="figures", detail="sequence.png, shapes.png")
@@ -84,13 +99,17 @@ def _write(result: object, folder: Path, files: list[str], pressures: list[float
                                 done, total, phase="animation", detail=f"{done}/{total} frames"))
 
 
+#: Each cell model in words: what it is and how far it is from 3D FE.
+MODEL_WORDS = {"calibrated": "calibrated (Ritz corrected against 3D FE; errors in "
+                             "docs/validation.md)",
+               "calibrated-fast": "calibrated-fast (Ritz corrected against 3D FE on emulated "
+                                  "Ritz features; errors in docs/validation.md)",
+               "ritz": "ritz (reduced model; Pc about 2 × the 3D FE's)", "fe": "fe (3D FE)"}
+
+
 def model_words(summary: dict[str, Any]) -> str:
     """The cell model(s) of a device result, and how far each is from 3D FE."""
-    words = {"calibrated": "calibrated (Ritz corrected against 3D FE; errors in "
-                           "docs/validation.md)",
-             "calibrated-fast": "calibrated-fast (Ritz corrected against 3D FE on emulated "
-                                "Ritz features; errors in docs/validation.md)",
-             "ritz": "ritz (reduced model; Pc about 2 × the 3D FE's)", "fe": "fe (3D FE)"}
+    words = MODEL_WORDS
     fell_back = [n for n, m in summary["modules"].items()
                  if (m.get("calibration") or {}).get("inside") is False]
     models = summary["model"] if isinstance(summary["model"], list) else [summary["model"]]
@@ -146,7 +165,7 @@ def simulate(
             raise SpecError(f"{spec}: device.pmax: missing; give the supply pressure in "
                             "[device] (pmax = \"60 kPa\") or on the command line (--pmax)")
         pressures = _snapshot_pressures(snapshots, p_max)
-        folder = out if out is not None else Path("multimorph-out") / f"simulate-{spec.stem}"
+        folder = out if out is not None else default_out("simulate", spec)
         files = list(FILES) + (["morph.gif"] if frames else [])
         with claim_output(folder, files=files), progress("simulate", quiet=as_json) as update:
             result = simulate_device(

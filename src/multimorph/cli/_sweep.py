@@ -7,18 +7,22 @@ from typing import Annotated, Any
 
 import typer
 
-from multimorph.cli._common import console, emit_json, err_console, handle_errors
+from multimorph.cli._common import console, default_out, emit_json, err_console, handle_errors
 from multimorph.cli._help import PlainHelpCommand
 from multimorph.cli._progress import progress
 
-__all__ = ["register", "sweep"]
+__all__ = ["FILES", "register", "sweep", "with_model"]
+
+#: What a sweep folder holds (multimorph.sweep's store): the manifest, the spec as given,
+#: the design table, one part per finished batch and, once complete, every result merged.
+FILES = ("sweep.json", "spec.toml", "designs.zarr", "parts/", "results.zarr")
 
 
 def sweep(
     spec: Annotated[Path, typer.Argument(help="Sweep spec (TOML): [cell] and [sweep].")],
     out: Annotated[Path | None, typer.Option(
-        "--out", "-o", help="Sweep folder (default multimorph-out/<spec name>). Rerunning into "
-        "the same folder resumes.")] = None,
+        "--out", "-o", help="Sweep folder (default multimorph-out/sweep-<spec name>). "
+        "Rerunning into the same folder resumes.")] = None,
     scheduler: Annotated[str | None, typer.Option(
         help="'local' (LocalCluster of worker processes, default), 'threads', 'sync', or a "
         "scheduler address such as tcp://host:8786.")] = None,
@@ -54,7 +58,7 @@ def sweep(
     from multimorph.sweep import run_sweep
 
     with handle_errors(as_json):
-        folder = out if out is not None else Path("multimorph-out") / spec.stem
+        folder = out if out is not None else default_out("sweep", spec)
         target: Any = spec
         if model is not None:
             target = with_model(spec, model)

@@ -12,6 +12,7 @@ from multimorph.design._optimise import DesignResult
 from multimorph.design._robust import RobustnessReport
 from multimorph.device import Device
 from multimorph.materials import Material
+from multimorph.names import kind_name
 
 __all__ = ["convergence_figure", "device_toml", "report_dict", "report_markdown",
            "robustness_figure", "sequence_figure"]
@@ -139,7 +140,7 @@ def report_markdown(result: DesignResult, robust: RobustnessReport | None = None
               "|---|---|---|---|---|---|---|---|---|---|---|"]
         for stage, sr in zip(t.stages, best.stages, strict=True):
             sf = "—" if sr.safety_factor is None else f"{sr.safety_factor:.2f}"
-            L.append(f"| {stage.name} | {stage.kind} | {sr.n_cells} | "
+            L.append(f"| {stage.name} | {kind_name(stage.kind)} | {sr.n_cells} | "
                      f"{_fmt_p(stage.start_pressure)} | "
                      f"{_fmt_p(sr.start)} | {_fmt_p(stage.end_pressure)} | {_fmt_p(sr.end)} | "
                      f"{_fmt_mag(stage.kind, abs(stage.magnitude))} | "
@@ -300,7 +301,7 @@ def fe_figure(result: DesignResult) -> Any:
                 ax.axhline(w, color="k", lw=0.8)
             label = {"start": "Pc", "end": "Ph", "magnitude": "motion at Ph"}[what]
             ax.set_ylabel(f"{label} ({unit})")
-            ax.set_title(f"{stage.name} ({stage.kind}): {label}", fontsize=9)
+            ax.set_title(f"{stage.name} ({kind_name(stage.kind)}): {label}", fontsize=9)
             ax.set_xticks(x)
             ax.set_xlabel("FE round")
             if i == 0 and j == 0:

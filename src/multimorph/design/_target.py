@@ -46,6 +46,7 @@ from typing import Any
 from multimorph.errors import SpecError
 from multimorph.limits import MAX_COPIES, check_pressure_scale
 from multimorph.materials import Material, material_from_spec
+from multimorph.names import motion_name
 from multimorph.units import to_angle, to_si
 
 __all__ = ["GRADED_RATIO", "GRADED_RATIO_CALIBRATED", "STAGE_KINDS", "Constraints", "Stage",
@@ -211,6 +212,8 @@ def _stage(i: int, raw: Any) -> Stage:
         raise SpecError(f"{where}: unknown key(s) {', '.join(unknown)}; expected "
                         f"{', '.join(sorted(_STAGE_KEYS))}")
     kind = raw.get("kind")
+    if isinstance(kind, str):
+        kind = motion_name(kind)  # "bending" is accepted for "bend" (multimorph.names)
     if kind is None:
         raise SpecError(f"{where}.kind: missing (one of {', '.join(STAGE_KINDS)})")
     if kind not in STAGE_KINDS:

@@ -55,6 +55,7 @@ from multimorph.limits import (
     check_pressure_scale,
     format_bytes,
 )
+from multimorph.names import kind_name
 from multimorph.units import to_angle, to_si
 
 __all__ = ["Device", "device_from_spec"]
@@ -245,7 +246,8 @@ def device_from_spec(spec: Mapping[str, Any]) -> Device:
         if extra:
             raise SpecError(f"{where}: unknown key(s) {', '.join(extra)}")
         if "kind" not in raw:
-            raise SpecError(f"{where}.kind: missing (bending, stretching or twisting)")
+            raise SpecError(f"{where}.kind: missing (bending, stretching or twisting; bend, "
+                            "stretch, twist are accepted)")
         c = raw.get("cell")
         if c is None:
             raise SpecError(f"{where}.cell: missing (a [cells.*] name or an inline table)")
@@ -268,7 +270,7 @@ def device_from_spec(spec: Mapping[str, Any]) -> Device:
                       ("count", "count", 1, MAX_COPIES),
                       ("strips", "strips", 3, MAX_COPIES))}
         kw: dict[str, Any] = dict(
-            name=name, kind=str(raw["kind"]), cell=cell, branch=branch,
+            name=name, kind=kind_name(str(raw["kind"])), cell=cell, branch=branch,
             attach_to=raw.get("attach_to"), start=start, **counts,
         )
         if "radius" in raw:

@@ -55,6 +55,7 @@ from multimorph.errors import SpecError
 from multimorph.geometry import CELL_KEYS, CellGeometry, TiltedCell
 from multimorph.io import load_toml
 from multimorph.limits import check_pressure_scale, format_bytes, memory_budget
+from multimorph.names import kind_name
 from multimorph.sweep._params import Parameter, parse_parameter
 from multimorph.units import to_si
 
@@ -432,6 +433,8 @@ def _cell_kind(sweep: Mapping[str, Any], base: CellGeometry, params: list[Parame
                ) -> tuple[str, float | None, float]:
     """``kind``, fixed ``tilt`` and ``min_chamber`` of a ``[sweep]`` table (checked)."""
     kind = sweep.get("kind", "stretching" if base.symmetric else "bending")
+    if isinstance(kind, str):
+        kind = kind_name(kind)  # "bend" is accepted for "bending" (multimorph.names)
     if kind not in CELL_KINDS:
         raise SpecError(f"sweep.kind: expected one of {', '.join(CELL_KINDS)}, got {kind!r}")
     swept = {q.target for q in params}

@@ -69,7 +69,8 @@ def _sweep(frames: np.ndarray, outline: np.ndarray) -> np.ndarray:
 
 
 def _shade(colour: tuple[float, ...], factor: float) -> tuple[float, ...]:
-    return (*(factor * c for c in colour[:3]), 1.0)
+    """``colour`` darker (factor < 1) or lighter (> 1), each channel kept within 0–1."""
+    return (*(min(1.0, factor * c) for c in colour[:3]), 1.0)
 
 
 def body_polygons(shape: Any, colours: Mapping[str, Any], *,

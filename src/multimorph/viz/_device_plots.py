@@ -37,7 +37,9 @@ def _display(mode: str, measure: np.ndarray) -> tuple[np.ndarray, str]:
 
 
 def module_curves_figure(result: Any) -> Any:
-    """Per-module curves vs pressure over the sequence chart (bands of dominance)."""
+    """Per-module curves vs pressure over the sequence chart (bands of dominance): angles
+    (deg) on the left axis, stretches (%) on a right axis of their own (one unit per
+    axis)."""
     fig = _figure(figsize=(8.0, 5.0), layout="constrained")
     ax = fig.add_subplot(1, 1, 1)
     names = list(result.strains)
@@ -46,23 +48,31 @@ def module_curves_figure(result: Any) -> Any:
         ax.axvspan(band["from_pressure"] / 1e3, band["to_pressure"] / 1e3,
                    color=colour[band["module"]], alpha=0.08, lw=0)
     modes = {result.strains[n].module.mode for n in names}
+    angles = bool(modes - {"stretch"})
+    right = ax.twinx() if angles and "stretch" in modes else None
     for n in names:
         strain = result.strains[n]
-        y, _ = _display(strain.module.mode, strain.measure)
-        kind = strain.module.mode
-        ls = "-" if kind == "bend" else ("--" if kind == "twist" else ":")
-        ax.plot(strain.pressure / 1e3, y, ls, color=colour[n], lw=2, label=f"{n} ({kind})")
+        mode = strain.module.mode
+        y, _ = _display(mode, strain.measure)
+        on = right if mode == "stretch" and right is not None else ax
+        ls = "-" if mode == "bend" else ("--" if mode == "twist" else ":")
+        on.plot(strain.pressure / 1e3, y, ls, color=colour[n], lw=2,
+                label=f"{n} ({strain.module.kind})")
         ch = strain.response.characteristic
         for p, marker in ((ch.critical, "o"), (ch.hardening, "s")):
             if p is not None:
-                ax.plot([p / 1e3], [np.interp(p, strain.pressure, y)], marker, color=colour[n],
+                on.plot([p / 1e3], [np.interp(p, strain.pressure, y)], marker, color=colour[n],
                         ms=7, mfc="white")
     ax.set_xlabel("pressure P (kPa)")
-    ax.set_ylabel(" / ".join(sorted({_display(mode, np.zeros(1))[1] for mode in modes})))
+    ax.set_ylabel("angle (deg)" if angles else "stretch λ−1 (%)")
+    if right is not None:
+        right.set_ylabel("stretch λ−1 (%)")
     ax.set_title(f"{result.device.name}: motion per module (o Pc, □ Ph; shading: dominant "
                  f"module)", fontsize=10)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    handles = [h for a in (ax, right) if a is not None
+               for h in a.get_legend_handles_labels()[0]]
+    ax.legend(handles=handles, fontsize=8)
     return fig
 
 

@@ -13,6 +13,9 @@ if TYPE_CHECKING:
 
 __all__ = ["plot_fit", "plot_fit_grid"]
 
+#: Stresses on every fit panel: kPa (one unit across panels and commands).
+STRESS_UNIT = ("kPa", 1e3)
+
 _CASE_TITLES = {"uniaxial": "uniaxial tension", "equibiaxial": "equibiaxial tension",
                 "pure_shear": "pure shear"}
 
@@ -41,7 +44,7 @@ def _stable_band(result: FitResult, case: str) -> tuple[float, float]:
 
 
 def _draw(ax: Any, result: FitResult, curve: LoadCurve, *, others: Sequence[FitResult] = (),
-          stress_unit: tuple[str, float] = ("MPa", 1e6), legend: bool = True) -> None:
+          stress_unit: tuple[str, float] = STRESS_UNIT, legend: bool = True) -> None:
     unit, div = stress_unit
     lo, hi = result.stretch_range
     lam, p = curve.stretch, curve.stress
@@ -69,9 +72,6 @@ def _draw(ax: Any, result: FitResult, curve: LoadCurve, *, others: Sequence[FitR
         ax.legend(fontsize=7, loc="upper left")
 
 
-def _unit_for(stresses: np.ndarray) -> tuple[str, float]:
-    top = float(np.nanmax(np.abs(stresses))) if stresses.size else 1.0
-    return ("MPa", 1e6) if top >= 1e6 else ("kPa", 1e3)
 
 
 def plot_fit(result: FitResult, curves: Sequence[LoadCurve], path: str | os.PathLike[str], *,
@@ -92,9 +92,8 @@ def plot_fit(result: FitResult, curves: Sequence[LoadCurve], path: str | os.Path
     plt = _pyplot()
     n = len(curves)
     fig, axes = plt.subplots(1, n, figsize=(4.2 * n, 3.6), squeeze=False)
-    unit = _unit_for(np.concatenate([c.stress for c in curves]))
     for ax, c in zip(axes[0], curves, strict=True):
-        _draw(ax, result, c, others=others, stress_unit=unit)
+        _draw(ax, result, c, others=others)
         ax.set_title(_CASE_TITLES.get(c.case, c.case), fontsize=10)
     fig.suptitle(title or f"{result.material.name or 'material'}: {result.material.model} fit",
                  fontsize=11)
@@ -112,7 +111,7 @@ def plot_fit_grid(items: Sequence[tuple[str, Sequence[FitResult], LoadCurve]],
     for ax in axes.ravel()[len(items):]:
         ax.axis("off")
     for ax, (title, fits, curve) in zip(axes.ravel(), items, strict=False):
-        _draw(ax, fits[0], curve, others=fits[1:], stress_unit=_unit_for(curve.stress))
+        _draw(ax, fits[0], curve, others=fits[1:])
         ax.set_title(title, fontsize=9)
         ax.legend(fontsize=6, loc="upper left")
     fig.tight_layout()

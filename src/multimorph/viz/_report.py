@@ -23,22 +23,17 @@ from typing import Any
 import numpy as np
 
 from multimorph.viz._bodies import body_polygons
+from multimorph.viz._html import COLOURS, Figure, kpa, plotly, table, write_page
 
-__all__ = ["curves_figure", "device_figure", "device_report_html", "sequence_figure"]
+__all__ = ["curves_figure", "device_blocks", "device_figure", "device_report_html",
+           "sequence_figure", "stage_table"]
 
-_COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b")
 #: Rod frames per cell in the page's 3D view (fewer than the PNG: every frame is stored).
 POINTS_PER_CELL = 4
 
 
-def _plotly() -> Any:
-    import plotly.graph_objects as go
-
-    return go
-
-
 def _colours(result: Any) -> dict[str, str]:
-    return {name: _COLOURS[i % len(_COLOURS)] for i, name in enumerate(result.strains)}
+    return {name: COLOURS[i % len(COLOURS)] for i, name in enumerate(result.strains)}
 
 
 def _display(mode: str, measure: np.ndarray) -> tuple[np.ndarray, str]:
@@ -47,20 +42,28 @@ def _display(mode: str, measure: np.ndarray) -> tuple[np.ndarray, str]:
     return np.degrees(measure), f"{mode} angle (deg)"
 
 
-def sequence_figure(result: Any) -> Any:
+def sequence_figure(result: Any, targets: Sequence[tuple[str, float]] = ()) -> Any:
     """Each module's motion against pressure (kPa), Pc (○) and Ph (□) marked, the band of
-    pressure where each module dominates shaded."""
-    go = _plotly()
+    pressure where each module dominates shaded; angles (deg) on the left axis, stretches
+    (%) on a right axis of their own (one unit per axis). ``targets``: (label, pressure in
+    Pa) drawn as dashed vertical lines (a design's wanted pressures)."""
+    go = plotly()
     colour = _colours(result)
     fig = go.Figure()
     for band in result.sequence.bands:
         fig.add_vrect(x0=band["from_pressure"] / 1e3, x1=band["to_pressure"] / 1e3,
                       fillcolor=colour[band["module"]], opacity=0.1, line_width=0)
+    for label, p in targets:
+        fig.add_vline(x=p / 1e3, line={"color": "#444", "dash": "dash", "width": 1},
+                      annotation_text=label, annotation_position="top")
+    modes = {strain.module.mode for strain in result.strains.values()}
+    angles = bool(modes - {"stretch"})
     for name, strain in result.strains.items():
         y, label = _display(strain.module.mode, strain.measure)
+        axis = "y2" if strain.module.mode == "stretch" and angles else "y"
         P = strain.pressure / 1e3
         fig.add_trace(go.Scatter(x=P, y=y, name=f"{name} ({strain.module.kind}), {label}",
-                                 line={"color": colour[name], "width": 3}))
+                                 line={"color": colour[name], "width": 3}, yaxis=axis))
         ch = strain.response.characteristic
         for p, symbol, what in ((ch.critical, "circle-open", "Pc"),
                                 (ch.hardening, "square-open", "Ph")):
@@ -68,18 +71,24 @@ def sequence_figure(result: Any) -> Any:
                 fig.add_trace(go.Scatter(
                     x=[p / 1e3], y=[float(np.interp(p / 1e3, P, y))], mode="markers",
                     marker={"symbol": symbol, "size": 11, "color": colour[name],
-                            "line": {"width": 2}},
+                            "line": {"width": 2}}, yaxis=axis,
                     name=f"{what} {name}: {p / 1e3:.3g} kPa", showlegend=False))
-    fig.update_layout(title="sequence: motion per module (○ Pc, □ Ph; shading: dominant "
-                            "module)", xaxis_title="pressure P (kPa)",
-                      yaxis_title="motion (deg, or % stretch)", height=430,
-                      margin={"t": 50, "b": 40})
+    layout: dict[str, Any] = {
+        "title": "sequence: motion per module (○ Pc, □ Ph; shading: dominant module)",
+        "xaxis_title": "pressure P (kPa)",
+        "yaxis_title": "angle (deg)" if angles else "stretch λ−1 (%)",
+        "height": 430, "margin": {"t": 50, "b": 40}}
+    if angles and "stretch" in modes:
+        layout["yaxis2"] = {"title": {"text": "stretch λ−1 (%)"}, "overlaying": "y",
+                            "side": "right", "showgrid": False}
+        layout["legend"] = {"x": 1.08}
+    fig.update_layout(**layout)
     return fig
 
 
 def curves_figure(result: Any) -> Any:
     """Every module's bend κ (1/m), twist τ (rad/m) and stretch λ against pressure (kPa)."""
-    go = _plotly()
+    go = plotly()
     from plotly.subplots import make_subplots
 
     colour = _colours(result)
@@ -131,7 +140,7 @@ def _frame_meshes(result: Any, pressure: float, colour: Mapping[str, str]
 def device_figure(result: Any, pressures: Sequence[float]) -> Any:
     """The device in 3D (mm, equal axes) with a slider over ``pressures`` (Pa): one plotly
     frame per pressure, one ``Mesh3d`` per module (and hub) in each."""
-    go = _plotly()
+    go = plotly()
     colour = _colours(result)
     meshes = [_frame_meshes(result, float(p), colour) for p in pressures]
     every = np.concatenate([m["xyz"] for frame in meshes for m in frame.values()])
@@ -173,12 +182,9 @@ def device_figure(result: Any, pressures: Sequence[float]) -> Any:
     return fig
 
 
-def _kpa(p: float | None) -> str:
-    return "—" if p is None else f"{p / 1e3:.4g} kPa"
-
-
-def _stage_table(result: Any, summary: Mapping[str, Any]) -> str:
-    """The stages as an HTML table: per module in the order of the sequence."""
+def stage_table(result: Any, summary: Mapping[str, Any]) -> str:
+    """The stages as an HTML table, per module in the order of the sequence, and the
+    hand-over margins."""
     seq = result.sequence
     rows = []
     for name in seq.order:
@@ -191,25 +197,35 @@ def _stage_table(result: Any, summary: Mapping[str, Any]) -> str:
         cal = entry.get("calibration") or {}
         inside = ("" if not cal else "inside the calibrated box" if cal.get("inside")
                   else f"outside: {cal.get('reason', 'Ritz fallback')}")
-        cells = [name, strain.module.kind, str(strain.module.n_cells), _kpa(ch.critical),
-                 _kpa(ch.hardening), _kpa(ch.failure), dominant, str(entry["model"]), inside]
-        rows.append("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in cells) + "</tr>")
-    head = ("module", "kind", "cells", "Pc", "Ph", "failure", "dominant", "model",
-            "calibration")
+        rows.append([name, strain.module.kind, strain.module.n_cells, kpa(ch.critical),
+                     kpa(ch.hardening), kpa(ch.failure), dominant, entry["model"], inside])
     margins = "".join(
         f"<li>{html.escape(m['earlier'])} → {html.escape(m['later'])}: "
         + ("undetermined" if m["margin"] is None else
            f"{html.escape(m['verdict'])} (Pc later − Ph earlier = {m['margin'] / 1e3:+.3g} "
            "kPa)") + "</li>" for m in seq.margins)
-    return ("<table><thead><tr>" + "".join(f"<th>{h}</th>" for h in head)
-            + "</tr></thead><tbody>" + "".join(rows) + "</tbody></table>"
+    return (table(("module", "kind", "cells", "Pc", "Ph", "failure", "dominant", "model",
+                   "calibration"), rows)
             + (f"<ul>{margins}</ul>" if margins else ""))
 
 
-_STYLE = """body{font-family:system-ui,sans-serif;max-width:1100px;margin:1em auto;
-padding:0 1em;color:#222}table{border-collapse:collapse;margin:.5em 0}
-td,th{border:1px solid #ccc;padding:.25em .6em;text-align:left}th{background:#f2f2f2}
-.note{color:#b00}"""
+def device_blocks(result: Any, summary: Mapping[str, Any], *, frames: int = 16,
+                  targets: Sequence[tuple[str, float]] = ()) -> list[str | Figure]:
+    """The device's part of a page: the notes, the 3D view with its pressure slider
+    (``frames`` pressures from 0 to pmax, at least 2), the sequence (with ``targets``
+    marked), the stage table and the strain curves."""
+    pressures = np.linspace(0.0, result.pmax, max(2, int(frames)))
+    notes = "".join(f'<li class="note">{html.escape(n)}</li>' for n in summary["notes"])
+    return [
+        f"<ul>{notes}</ul>" if notes else "",
+        "<h2>The device as pressure rises</h2>",
+        "<p>Move the slider: every module is its cells' cross-section swept along the rod "
+        "(darker bands: partitions between cells; dark stripe: the top face, turned by "
+        "twist).</p>",
+        Figure("device", device_figure(result, pressures)),
+        "<h2>Sequence</h2>", Figure("sequence", sequence_figure(result, targets)),
+        "<h2>Stages</h2>", stage_table(result, summary),
+        "<h2>Strain curves</h2>", Figure("curves", curves_figure(result))]
 
 
 def device_report_html(result: Any, path: str | os.PathLike[str], *,
@@ -228,32 +244,9 @@ def device_report_html(result: Any, path: str | os.PathLike[str], *,
     frames : int
         Pressures of the 3D view's slider, from 0 to pmax (at least 2).
     """
-    pressures = np.linspace(0.0, result.pmax, max(2, int(frames)))
-    parts = [("device", device_figure(result, pressures)),
-             ("sequence", sequence_figure(result)), ("curves", curves_figure(result))]
-    divs = {name: fig.to_html(full_html=False, include_plotlyjs=(i == 0), div_id=name,
-                              config={"displaylogo": False}, auto_play=False)
-            for i, (name, fig) in enumerate(parts)}
-    notes = "".join(f'<li class="note">{html.escape(n)}</li>' for n in summary["notes"])
     name = html.escape(result.device.name)
-    page = f"""<!DOCTYPE html>
-<html lang="en"><head><meta charset="utf-8"><title>{name} — multimorph simulate</title>
-<style>{_STYLE}</style></head><body>
-<h1>{name}</h1>
-<p>{len(result.strains)} modules on one pressure line, P up to {result.pmax / 1e3:.4g} kPa.
-Cell model: {html.escape(model_text)}.</p>
-{f'<ul>{notes}</ul>' if notes else ''}
-<h2>The device as pressure rises</h2>
-<p>Move the slider: every module is its cells' cross-section swept along the rod (darker
-bands: partitions between cells; dark stripe: the top face, turned by twist).</p>
-{divs["device"]}
-<h2>Sequence</h2>
-{divs["sequence"]}
-<h2>Stages</h2>
-{_stage_table(result, summary)}
-<h2>Strain curves</h2>
-{divs["curves"]}
-</body></html>
-"""
-    with open(path, "w", encoding="utf-8") as fh:
-        fh.write(page)
+    write_page(path, f"{result.device.name} — multimorph simulate", [
+        f"<h1>{name}</h1>",
+        f"<p>{len(result.strains)} modules on one pressure line, P up to "
+        f"{result.pmax / 1e3:.4g} kPa. Cell model: {html.escape(model_text)}.</p>",
+        *device_blocks(result, summary, frames=frames)])

@@ -1,5 +1,5 @@
 """FE reports: the files of a finished run (JSON summary, CSV, VTU series for ParaView),
-its plots, its solid (STEP/STL) and its console summary.
+its plots, its solid (STEP/STL), its report.html and its console summary.
 
 Everything here reads finished results (:mod:`multimorph.fe.analyses`); nothing computes.
 """
@@ -31,6 +31,7 @@ from multimorph.fe.report._files import (
     write_twist_vtu,
     write_vtu_series,
 )
+from multimorph.fe.report._html import fe_curves, write_report_html
 from multimorph.fe.report._plots import (
     plot_curves,
     plot_device,
@@ -48,6 +49,7 @@ __all__ = [
     "export_box_pieces",
     "export_box_solid",
     "export_cell_solid",
+    "fe_curves",
     "plot_comparison",
     "plot_curves",
     "plot_device",
@@ -65,6 +67,7 @@ __all__ = [
     "write_hex_series",
     "write_outcome",
     "write_path_csv",
+    "write_report_html",
     "write_surface_stl",
     "write_twist_csv",
     "write_twist_outputs",

@@ -24,7 +24,7 @@ QUANTITY_LABELS = {
     "shear": "strip shear γ (-)",
     "bend_angle_deg": "bend angle (deg)",
     "twist_angle_abs_deg": "|twist angle| (deg)",
-    "twist_angle_deg": "twist angle (deg, in the sense of the tilt)",
+    "twist_angle_deg": "twist angle in the sense of the tilt (deg)",
 }
 
 

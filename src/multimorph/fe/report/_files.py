@@ -28,7 +28,9 @@ from multimorph.fe.analyses import (
 from multimorph.fe.mesh import device_pieces, hex_boundary
 from multimorph.fe.report._cad import export_box_pieces, export_cell_solid, write_surface_stl
 from multimorph.fe.report._comparison import comparison_curves, plot_comparison
+from multimorph.fe.report._html import write_report_html
 from multimorph.fe.report._plots import plot_curves, plot_device, plot_snapshots, plot_twist
+from multimorph.fe.report._text import describe
 from multimorph.io import write_json
 
 __all__ = ["TWISTING_CAD_NOTE", "summary", "write_comparison_figure", "write_device_csv",
@@ -101,6 +103,7 @@ def write_path_csv(result: FEResult, path: Path) -> None:
     data = result.response.path
     cols = [(name, np.asarray(f(data))) for name, f in _CSV_COLUMNS]
     cols += [(k, np.asarray(data.extra[k])) for k in STRIP_KEYS if k in data.extra]
+    cols.append(("pressure_kpa", np.asarray(data.pressure) / 1e3))  # last: added columns
     _rows(path, [name for name, _ in cols],
           ([_number(values[i]) for _, values in cols] for i in range(len(data))))
 
@@ -179,7 +182,7 @@ def write_device_csv(result: FEDeviceResult, folder: Path) -> list[str]:
             cols = (path.pressure, degree * path.extra["bend_angle"], path.curvature,
                     path.axial_stretch, path.volume, path.extra["volume_ratio"],
                     path.peak_stretch)
-            twist = (degree * path.extra["twist_angle"], path.twist_rate)
+            twist = (degree * path.extra["twist_angle"], path.twist_rate, path.pressure / 1e3)
             for i in range(len(path)):
                 yield [name, *(_number(c[i]) for c in cols), int(path.stable[i]),
                        *(_number(c[i]) for c in twist)]
@@ -187,10 +190,12 @@ def write_device_csv(result: FEDeviceResult, folder: Path) -> list[str]:
     _rows(folder / "curves.csv",
           ["module", "pressure_pa", "bend_angle_deg", "curvature_1_per_m", "axial_stretch",
            "chamber_volume_m3", "volume_ratio", "peak_stretch", "stable", "twist_angle_deg",
-           "twist_rate_rad_per_m"], curves())
+           "twist_rate_rad_per_m", "pressure_kpa"], curves())
     _rows(folder / "tip.csv",
-          ["pressure_pa", "tip_x_m", "tip_y_m", "tip_z_m", "tip_angle_deg", "stable"],
-          ([_number(P), *(_number(v) for v in tip), _number(math.degrees(angle)), int(stable)]
+          ["pressure_pa", "tip_x_m", "tip_y_m", "tip_z_m", "tip_angle_deg", "stable",
+           "pressure_kpa"],
+          ([_number(P), *(_number(v) for v in tip), _number(math.degrees(angle)), int(stable),
+            _number(P / 1e3)]
            for P, tip, angle, stable in zip(result.pressure, result.tip, result.tip_angle,
                                             result.stable, strict=True)))
     return ["curves.csv", "tip.csv"]
@@ -264,9 +269,10 @@ def write_twist_csv(result: FETwistResult, path: Path) -> None:
             "twist_rate_rad_per_m": result.twist_angle / result.module.length,
             "axial_stretch": data.axial_stretch, "chamber_volume_m3": data.volume,
             "volume_ratio": data.extra["volume_ratio"], "peak_stretch": data.peak_stretch}
-    _rows(path, [*cols, "stable", "arc_length_step"],
+    _rows(path, [*cols, "stable", "arc_length_step", "pressure_kpa"],
           ([*(_number(c[i]) for c in cols.values()), int(data.stable[i]),
-            int(data.extra["arc_length"][i])] for i in range(len(data))))
+            int(data.extra["arc_length"][i]), _number(data.pressure[i] / 1e3)]
+           for i in range(len(data))))
 
 
 def write_twist_outputs(result: FETwistResult, folder: Path, *, vtu: bool = True,
@@ -288,9 +294,11 @@ def write_twist_outputs(result: FETwistResult, folder: Path, *, vtu: bool = True
 
 
 # ------------------------------------------------------------------ one run of any kind
-def write_outcome(outcome: FEOutcome, folder: Path, *, vtu: bool = True) -> dict[str, Any]:
+def write_outcome(outcome: FEOutcome, folder: Path, *, vtu: bool = True,
+                  html: bool = True) -> dict[str, Any]:
     """Write every file of an FE run (:func:`~multimorph.fe.analyses.run_job`) into
-    ``folder``; returns its JSON summary, with ``files`` (the file names written)."""
+    ``folder``, with ``html`` its ``report.html`` (:func:`write_report_html`); returns its
+    JSON summary, with ``files`` (the file names written)."""
     folder = Path(folder)
     result, comparison = outcome.result, outcome.comparison
     if isinstance(result, FEResult):
@@ -317,6 +325,10 @@ def write_outcome(outcome: FEOutcome, folder: Path, *, vtu: bool = True) -> dict
     if comparison is not None:
         write_comparison_figure(outcome, folder / "comparison.png")
         files.append("comparison.png")
+    if html:
+        title, lines = describe(outcome, info)
+        write_report_html(outcome, folder / "report.html", title=title, lines=lines)
+        files.append("report.html")
     info["files"] = files
     return info
 

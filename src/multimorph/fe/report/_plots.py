@@ -164,14 +164,14 @@ def plot_device(result: FEDeviceResult, folder: Path | str) -> list[str]:
     paths = {name: response.path for name, response in result.responses.items()}
     marks = [(pc, f"Pc {name}") for name in paths
              if (pc := result.activation(name)[0]) is not None]
-    panels = [("bend angle (°, module frame)",
+    panels = [("bend angle, module frame (deg)",
                {n: np.degrees(path.extra["bend_angle"]) for n, path in paths.items()}),
               ("centroid stretch (-)", {n: path.axial_stretch for n, path in paths.items()}),
               ("V / V0 (-)", {n: path.extra["volume_ratio"] for n, path in paths.items()}),
-              ("tip angle (°)", {"tip": np.degrees(result.tip_angle)})]
+              ("tip angle (deg)", {"tip": np.degrees(result.tip_angle)})]
     twisting = [module.name for module in result.mesh.modules if module.kind == "twisting"]
     if twisting:
-        panels.insert(1, ("twist angle (°, about the axis)",
+        panels.insert(1, ("twist angle about the axis (deg)",
                           {n: np.degrees(paths[n].extra["twist_angle"]) for n in twisting}))
     plot_path_panels(
         result.pressure, result.stable, panels,
@@ -195,7 +195,7 @@ def plot_twist(result: FETwistResult, folder: Path | str) -> list[str]:
     marks = [(v, k) for v, k in ((pc, "Pc"), (ph, "Ph")) if v is not None]
     plot_path_panels(
         result.pressure, curve.stable,
-        [("twist angle (°, right-handed about +y)", {"twist": np.degrees(result.twist_angle)}),
+        [("twist angle, right-handed about +y (deg)", {"twist": np.degrees(result.twist_angle)}),
          ("axial stretch (-)", {"stretch": curve.axial_stretch}),
          ("V / V0 (-)", {"V/V0": curve.extra["volume_ratio"]}),
          ("peak principal stretch (-)", {"peak": curve.peak_stretch})],

@@ -89,7 +89,7 @@ def _device_lines(outcome: FEOutcome, info: Mapping[str, Any]) -> tuple[str, lis
     what = "FE device"
     lines = [_headline(f" {result.device.name}: {len(result.responses)} modules,",
                        result.stats)]
-    head = (f"  {'module':<10} {'kind':<10} {'Pc':>6} {'Ph':>6} {'at P':>6} {'bend°':>6} "
+    head = (f"  {'module':<10} {'kind':<15} {'Pc':>6} {'Ph':>6} {'at P':>6} {'bend°':>6} "
             f"{'twist°':>6} {'stretch':>7}")
     if comparison is not None:
         names = sorted({str(row.get("model", "model")) for row in comparison.values()})
@@ -103,8 +103,8 @@ def _device_lines(outcome: FEOutcome, info: Mapping[str, Any]) -> tuple[str, lis
     for module in result.mesh.modules:
         pc, ph = result.activation(module.name)
         at = result.module_at(module.name)
-        kind = f"{module.kind[:7]} {math.degrees(module.orientation):.0f}°"
-        line = (f"  {module.name[:10]:<10} {kind:<10} {_kpa(pc, ''):>6} {_kpa(ph, ''):>6} "
+        kind = f"{module.kind} {math.degrees(module.orientation):.0f}°"
+        line = (f"  {module.name[:10]:<10} {kind:<15} {_kpa(pc, ''):>6} {_kpa(ph, ''):>6} "
                 f"{_kpa(at['pressure'], ''):>6} {math.degrees(at['bend_angle']):>6.1f} "
                 f"{math.degrees(at['twist_angle']):>6.1f} {at['axial_stretch']:>7.3f}")
         if comparison is not None:
