@@ -93,9 +93,13 @@ def fe_verification_blocks(report: Mapping[str, Any], model: str) -> list[str]:
         return ["<p><b>Not FE-verified</b>: every number on this page is the "
                 f"{html.escape(model)} model's. <code>multimorph design … --verify-fe</code> "
                 "inflates the designed device in 3D FE and adds the comparison here.</p>"]
-    verdict = ("<b>FE-verified</b>: the device FE meets every target"
+    verdict = ("<b>FE-verified</b>: 3D FE meets every target"
                if report.get("fe_verified") else
-               "<b>Not FE-verified</b>: the device FE misses a target")
+               "<b>Not FE-verified</b>: 3D FE misses a target")
+    verdict += (" (each stage's module inflated on its own, on the common pressure: route "
+                "<code>modules</code>)" if report.get("fe_route") == "modules" else
+                " (the whole device as one FE problem: route <code>device</code>)"
+                if report.get("fe_route") == "device" else "")
     rows = []
     for rd in rounds:
         for stage in rd["stages"]:
