@@ -197,7 +197,8 @@ def test_the_design_page_shows_the_fe_verification_of_a_verified_run(tmp_path) -
     report = json.loads((BENCH / "design_jar_lifter_fe" / "report.json").read_text())
     design_report_html(report, tmp_path / "report.html", model_text="calibrated")
     text = (tmp_path / "report.html").read_text(encoding="utf-8")
-    assert "<b>Not FE-verified</b>: the device FE misses a target (2 FE rounds" in text
+    # an older report without fe_route: the device route, unnamed
+    assert "<b>Not FE-verified</b>: 3D FE misses a target (2 FE rounds" in text
     first = report["fe_rounds"][0]["stages"][0]
     model_pc = first["search_model"]["start_pressure"] / 1e3
     assert (f"<td>0</td><td>{first['name']}</td><td>stretching</td><td>—</td>"
