@@ -11,11 +11,13 @@ model's (:func:`~multimorph.design.score_measured`). The device is the one its
     Each stage's module on its own, clamped at its start, on the common pressure: a bending
     or stretching module as its cells in series (:func:`multimorph.fe.simulate_cell` with
     ``n_cells``, the FE reference data set's mesh: 2 elements through every wall, in-plane
-    edges d/20), a twisting module as its strips around the shaft
-    (:func:`multimorph.fe.simulate_twisting_module`). On one pressure line each module's
-    state is its own equilibrium at that pressure; its neighbours move its base as a rigid
-    body (series) or not at all (fingers on a hub), so the stages are those of the device
-    up to the coupling through the shared end walls, which this route leaves out.
+    edges d/20; its far end tied to a rigid plate where the device joins it to the next
+    module or a hub, free at a tip: :func:`module_end`), a twisting module as its strips
+    around the shaft (:func:`multimorph.fe.simulate_twisting_module`). On one pressure line
+    each module's state is its own equilibrium at that pressure; its neighbours move its
+    base as a rigid body (series) or not at all (fingers on a hub), so the stages are those
+    of the device up to the coupling through the shared end walls, which this route
+    leaves out.
 ``device``
     The whole device as one problem (series modules, fingers on their hub, twisting
     modules on their shaft: :func:`multimorph.fe.simulate_device`). Under pressure control
@@ -45,7 +47,8 @@ from multimorph.design._evaluate import Evaluation, Measured, score_measured
 from multimorph.design._target import TargetSpec
 from multimorph.errors import MultimorphError
 
-__all__ = ["FE_ROUTES", "as_written", "fe_checker", "fe_measure", "module_measure"]
+__all__ = ["FE_ROUTES", "as_written", "fe_checker", "fe_measure", "module_end",
+           "module_measure"]
 
 FE_CHECK_FORMAT = "multimorph-fe-check/1"
 #: How :func:`fe_checker` inflates a design (see the module docstring); the first is the
@@ -322,7 +325,8 @@ def _modules_route(target: TargetSpec, ev: Evaluation, kw: dict[str, Any], folde
     rows, stats = [], {}
     for stage, sr, cell in zip(target.stages, ev.stages, ev.candidate.cells, strict=True):
         module = device.module(stage.name)
-        part = folder / f"{key}.modules" / f"{_slug(stage.name)}.json"
+        end = module_end(device, stage.name)
+        part = folder / f"{key}.modules" / f"{_slug(stage.name)}-{end}.json"
         part.parent.mkdir(parents=True, exist_ok=True)
         if part.exists():
             saved = json.loads(part.read_text())
@@ -356,7 +360,7 @@ def _modules_route(target: TargetSpec, ev: Evaluation, kw: dict[str, Any], folde
                                          wall_elements=wall_elements or MODULE_WALL_ELEMENTS,
                                          length_fraction=MODULE_LENGTH_FRACTION)})
             res = simulate_cell(module.cell, settings, n_cells=module.n_cells, progress=tick,
-                                checkpoint=ckpt)
+                                checkpoint=ckpt, end=end)
             response, length = res.response, module.length
         pc, ph, mag, peak = module_measure(stage.kind, response, length, pmax)
         top = float(np.max(response.loading.pressure))
@@ -364,12 +368,26 @@ def _modules_route(target: TargetSpec, ev: Evaluation, kw: dict[str, Any], folde
         st = {k: v for k, v in res.stats.items()
               if isinstance(v, (int, float, str, bool)) or v is None}
         st["wall_time_s"] = time.perf_counter() - t0
+        st["end"] = end if module.kind != "twisting" else "shaft"
         _save(part, {"format": FE_CHECK_FORMAT, "key": key, "module": stage.name,
                      "row": row, "stats": st})
         ckpt.clear()
         rows.append(row)
         stats[stage.name] = st
     return rows, stats
+
+
+def module_end(device: Any, name: str) -> str:
+    """How module ``name``'s far end is held when it is inflated on its own
+    (:data:`multimorph.fe.analyses.CELL_ENDS`): ``"plate"`` where the device joins it to
+    something there — the next module of its branch, or a branch (a hub of fingers) that
+    starts at its end: that body holds the end face plane while it moves and turns — and
+    ``"free"`` at a tip, where the end wall can bulge on its own."""
+    module = device.module(name)
+    branch = device.branches()[module.branch]
+    if branch[-1].name != module.name:
+        return "plate"
+    return "plate" if any(m.attach_to == module.name for m in device.modules) else "free"
 
 
 def _slug(name: str) -> str:
