@@ -1,0 +1,61 @@
+"""The ``modules`` route of the design's FE check (issue 19), without FE: how each module's
+far end is held when it is inflated on its own, and what is measured on its response."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from multimorph.design import FE_ROUTES, fe_checker, module_measure
+from multimorph.design._fe_check import module_end
+from multimorph.device import device_from_spec
+from multimorph.errors import MultimorphError
+from multimorph.io import load_toml
+from multimorph.response import EquilibriumPath, build_response
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+
+def test_a_module_joined_at_its_end_has_a_plate_there_and_a_tip_is_free() -> None:
+    # jar lifter: the stalk at the base carries the seal; the seal's end is the tip
+    jar = device_from_spec(load_toml(EXAMPLES / "jar_lifter.toml"))
+    assert module_end(jar, "stalk") == "plate"
+    assert module_end(jar, "seal") == "free"
+    # gripper: the fingers' hub sits at the twister's end; each finger's tip is free
+    gripper = device_from_spec(load_toml(EXAMPLES / "gripper.toml"))
+    assert module_end(gripper, "twister") == "plate"
+    assert module_end(gripper, "fingers") == "free"
+
+
+def _bending(p_max: float, pc: float, width: float, kappa_max: float, length: float):
+    """A κ(P) that rises steepest at ``pc`` (tanh) and saturates at ``kappa_max``."""
+    P = np.linspace(0.0, p_max, 201)
+    z = np.zeros_like(P)
+    kappa = 0.5 * kappa_max * (1 + np.tanh((P - pc) / width))
+    path = EquilibriumPath(P, kappa, z, z + 1, 1 + P, z + 1.5, np.ones_like(P, bool))
+    return build_response(path, length=length, shear_modulus=1e5, backend="fe")
+
+
+def test_module_measure_reads_pc_ph_and_the_bend_at_ph() -> None:
+    L = 0.03
+    r = _bending(60e3, 20e3, 3e3, 50.0, L)
+    pc, ph, mag, peak = module_measure("bend", r, L, 60e3)
+    ch = r.characteristic
+    assert pc == pytest.approx(ch.critical) and ph == pytest.approx(ch.hardening)
+    assert pc == pytest.approx(20e3, rel=0.02) and pc < ph < 60e3
+    # the motion is the bend angle κ(Ph)·L of the module
+    P, k = r.loading.pressure, r.loading.curvature
+    assert mag == pytest.approx(float(np.interp(ph, P, k)) * L, rel=1e-9)
+    assert peak == pytest.approx(1.5)
+    # pressures above the target's maximum do not count: nothing reached, the motion at the
+    # top of the stable loading curve
+    pc2, ph2, mag2, _ = module_measure("bend", r, L, 15e3)
+    assert pc2 is None and ph2 is None
+    assert mag2 == pytest.approx(float(k[-1]) * L)
+
+
+def test_an_unknown_route_is_refused_before_any_fe(tmp_path) -> None:
+    assert FE_ROUTES[0] == "modules"
+    with pytest.raises(MultimorphError, match="--fe-route"):
+        fe_checker(tmp_path, route="whole")
+    assert not any(tmp_path.iterdir())
