@@ -59,3 +59,31 @@ def test_an_unknown_route_is_refused_before_any_fe(tmp_path) -> None:
     with pytest.raises(MultimorphError, match="--fe-route"):
         fe_checker(tmp_path, route="whole")
     assert not any(tmp_path.iterdir())
+
+
+def test_designed_twist_strips_fit_on_their_shaft() -> None:
+    """A twist stage's cells are at most as wide as a face of its shaft (three strips on a
+    triangular shaft: 2 r tan 60°), so the designed module can be built and meshed — the
+    gripper designed before this rule had 19.4 mm strips on 17.3 mm faces."""
+    import math
+
+    from multimorph.design import SearchSpace, build_device, target_from_spec
+    from multimorph.fe.mesh import twisting_module_mesh
+    from multimorph.models import batch_model
+
+    target = target_from_spec(load_toml(EXAMPLES / "target_gripper.toml"))
+    twist = next(s for s in target.stages if s.kind == "twist")
+    face = 2.0 * twist.shaft_radius * math.tan(math.pi / 3)
+    for boxes in (None, batch_model("calibrated-fast", fallback=False).support_boxes()):
+        space = SearchSpace(target, boxes=boxes)
+        rng = np.random.default_rng(1)
+        xs = rng.random((64, space.dim))
+        xs[0], xs[1] = 1.0, 0.0                     # the widest and narrowest corners
+        widths = [space.decode(x).cells[target.stages.index(twist)].width for x in xs]
+        assert max(widths) <= face * (1 + 1e-9)
+        assert max(widths) > 0.8 * face             # the bound is reached, not over-tight
+    cand = space.decode(xs[0])
+    device = build_device(target, cand, [4] * len(target.stages))
+    module = device.module(twist.name)
+    assert module.strips == 3
+    twisting_module_mesh(module, "coarse")        # no "strips do not fit" refusal

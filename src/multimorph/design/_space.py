@@ -3,7 +3,7 @@
 Each stage owns :data:`N_VARS` coordinates in [0, 1] (unused ones are ignored)::
 
     0 d    cell length           d_min … d_max
-    1 w    cell width            w_min … max_width
+    1 w    cell width            w_min … max_width (a twist stage: at most its shaft's face)
     2 h    cell height           h_min … max_height
     3 ht   top wall              min_wall … half the height left over by a 1 mm chamber
     4 hb   bottom wall (bending; stretching: = ht)
@@ -11,7 +11,7 @@ Each stage owns :data:`N_VARS` coordinates in [0, 1] (unused ones are ignored)::
     6 df   end walls             min_wall … half the length left over
     7 wall material              discrete: index into the allowed materials
     8 bottom material (bending)  discrete
-    9 tilt (twisting)            10° … 80°
+    9 tilt (twisting)            10° … 79° (FE meshes tilts below 80°)
 
 Every decoded cell is valid by construction (walls ≥ min_wall, chambers ≥ ``min_chamber``).
 
@@ -48,7 +48,9 @@ __all__ = ["N_VARS", "VAR_NAMES", "Candidate", "SearchSpace"]
 N_VARS = 10
 VAR_NAMES = ("length", "width", "height", "top_wall", "bottom_wall", "side_wall", "end_wall",
              "material", "bottom_material", "tilt")
-TILT_RANGE = (math.radians(10.0), math.radians(80.0))
+TILT_RANGE = (math.radians(10.0), math.radians(79.0))
+#: Strips of a designed twisting module (the :class:`~multimorph.device.Module` default).
+TWIST_STRIPS = 3
 #: The calibrated model's cell kind behind each stage kind (a twisting module's tilted cells
 #: are answered from their straight cell).
 BOX_KIND = {"bend": "bending", "twist": "bending", "stretch": "stretching"}
@@ -133,7 +135,9 @@ class SearchSpace:
         for i, stage in enumerate(self.target.stages):
             u = x[i * N_VARS:(i + 1) * N_VARS]
             box = self.boxes.get(BOX_KIND[stage.kind]) if self.boxes else None
-            boxed = _decode_in_box(u, box, self, stage.kind == "stretch") if box else None
+            w_max = stage_max_width(stage, c.max_width)
+            boxed = (_decode_in_box(u, box, self, stage.kind == "stretch", w_max) if box
+                     else None)
             if boxed is not None:
                 cells.append(boxed[0])
                 tilts.append(TILT_RANGE[0] + u[9] * (TILT_RANGE[1] - TILT_RANGE[0]))
@@ -141,7 +145,7 @@ class SearchSpace:
                 continue
             d_lo, d_hi = max(self.d_range[0], lo), max(self.d_range[1], lo)
             d = d_lo + u[0] * (d_hi - d_lo)
-            w = lo + u[1] * (max(c.max_width, lo) - lo)
+            w = lo + u[1] * (max(w_max, lo) - lo)
             h = lo + u[2] * (max(c.max_height, lo) - lo)
             room_h = max(h - mc - 2.0 * tmin, 0.0)
             ht = tmin + u[3] * 0.5 * room_h
@@ -207,7 +211,18 @@ def _nearest_allowed(j: int, allowed: Sequence[int], key: Sequence[float]) -> in
     return min(allowed, key=lambda k: (abs(math.log(key[k] / key[j])), k))
 
 
+def stage_max_width(stage: Any, max_width: float) -> float:
+    """The widest cell a stage may have: ``max_width``, and for a twist stage at most the
+    face of its shaft (its strips lie on the faces of a regular polygon around the shaft,
+    one face per strip: width ≤ 2 r tan(180°/strips), the module's default 3 strips), so
+    that the designed module can be built (and meshed: :mod:`multimorph.fe.mesh`)."""
+    if stage.kind != "twist":
+        return max_width
+    return min(max_width, 2.0 * stage.shaft_radius * math.tan(math.pi / TWIST_STRIPS))
+
+
 def _decode_in_box(u: np.ndarray, box: Any, space: SearchSpace, sym: bool,
+                   max_width: float | None = None,
                    ) -> tuple[CellGeometry, tuple[int, int]] | None:
     """One stage's cell with its groups inside ``box`` (``None``: the box and the
     constraints leave no cell length, then the plain decoding is used)."""
@@ -235,7 +250,8 @@ def _decode_in_box(u: np.ndarray, box: Any, space: SearchSpace, sym: bool,
     # the cell lengths for which every group interval meets the constraints
     walls_hi = [hi_g["ht/d"], hi_g["ws/d"], hi_g["df/d"]] + ([] if sym else [hi_g["hb/d"]])
     d_lo = max(space.d_range[0], 2 * tmin + mc0, *(tmin / g for g in walls_hi))
-    d_hi = min(space.d_range[1], c.max_width / lo_g["w/d"], c.max_height / lo_g["h/d"])
+    w_max = c.max_width if max_width is None else max_width
+    d_hi = min(space.d_range[1], w_max / lo_g["w/d"], c.max_height / lo_g["h/d"])
     if not d_hi >= d_lo:
         return None
     d = d_lo + u[0] * (d_hi - d_lo)
@@ -246,7 +262,7 @@ def _decode_in_box(u: np.ndarray, box: Any, space: SearchSpace, sym: bool,
         return _interval(float(u[k]), max(lo_g[name], lo), min(hi_g[name], hi),
                          name not in LINEAR_GROUPS)
 
-    w = pick(1, "w/d", 2 * t + mc, c.max_width / d)
+    w = pick(1, "w/d", 2 * t + mc, w_max / d)
     ws = pick(5, "ws/d", t, 0.5 * (w - mc))
     h = pick(2, "h/d", 2 * t + mc, c.max_height / d)
     a_t = max(lo_g["ht/d"], t)
@@ -291,6 +307,7 @@ def build_device(target: TargetSpec, cand: Candidate, n_cells: Sequence[int],
         if stage.kind == "twist":
             kw["tilt"] = cand.tilts[i] * (1.0 if stage.sign > 0 else -1.0)
             kw["shaft_radius"] = stage.shaft_radius
+            kw["strips"] = TWIST_STRIPS
         if stage.count > 1:
             kw.update(count=stage.count, attach_to=target.stages[serial[-1]].name,
                       branch=f"{stage.name}-branch", radius=0.5 * cand.cells[i].width)
