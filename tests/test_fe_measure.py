@@ -99,3 +99,29 @@ def test_peak_element_over_all_and_over_a_subset() -> None:
     among = np.arange(0, 50, 7)
     best = max(among, key=lambda j: ev[:, j].max())
     assert peak_element(ev, among) == best
+
+
+def test_a_free_tips_end_wall_is_left_out_of_the_bend_fit() -> None:
+    """At a free end the bulging end wall pulls the bottom edge under it; the bend is read
+    on the rest of the edge (stop 27: the double-curvature 'reverse' module, 2 cells, read
+    κL = −0.80 rad at a 0.1 % stretch on the whole edge, −0.11 rad without that part)."""
+    from multimorph.fe import FESettings, MeshDensity, simulate_cell
+
+    fit = circle_fit_curvature
+
+    mat = Material("gent", {"mu": 245e3, "jm": 25.0})
+    g = CellGeometry(17.3e-3, 7.42e-3, 10.8e-3, 2.09e-3, 4.05e-3, 1.23e-3, 2.14e-3,
+                     material=mat, bottom_material=mat)
+    res = simulate_cell(g, FESettings(mesh=MeshDensity(wall_elements=1, length_fraction=0.1),
+                                      p_max=20e3, method="pressure"), n_cells=2, end="free")
+    mesh = res.mesh
+    x = mesh.points + res.displacements[-1][:len(mesh.points)]
+    line = np.asarray(mesh.bend_line)
+    inner = line[mesh.points[line, 1] <= mesh.length - g.df * (1 - 1e-9)]
+    assert 3 <= inner.size < line.size
+    k_all = fit(x[line, 1], x[line, 2])
+    k_inner = fit(x[inner, 1], x[inner, 2])
+    assert res.response.path.curvature[-1] == pytest.approx(k_inner, rel=1e-9)
+    # the end wall's pull is most of what the whole edge reads, at a 0.2 % stretch
+    assert abs(k_inner) < 0.5 * abs(k_all)
+    assert res.response.path.axial_stretch[-1] < 1.005
