@@ -251,46 +251,43 @@ def fe_checker(folder: str | Path, *, mesh: str = "coarse",
                 return [_score(target, ev, saved["stages"])]
         folder.mkdir(parents=True, exist_ok=True)
         t0 = time.perf_counter()
+        ckpt = None
         if route == "modules":
             rows, stats = _modules_route(target, ev, kw, folder, key, progress,
                                          wall_elements)
-            saved = {"format": FE_CHECK_FORMAT, "key": key, "route": route, "settings": kw,
-                     "wall_time_s": time.perf_counter() - t0,
-                     "points": sum(int(st["points"]) for st in stats.values()),
-                     "top_pressure": min(r["top_pressure"] for r in rows),
-                     "stats": stats, "stages": rows}
-            _save(done, saved)
+            label = "module FE"
+            points = sum(int(st["points"]) for st in stats.values())
+            top = min(r["top_pressure"] for r in rows)
+            done_text = f"{len(rows)} modules"
+        else:
             if progress is not None:
-                progress(f"module FE {key}: done in {saved['wall_time_s']:.0f} s, "
-                         f"{len(rows)} modules")
-            if records is not None:
-                records.append({**saved, "reused": False})
-            return [_score(target, ev, rows)]
-        if progress is not None:
-            progress(f"device FE {key}: meshing and inflating to {pmax / 1e3:.4g} kPa")
-        last = [0.0]
+                progress(f"device FE {key}: meshing and inflating to {pmax / 1e3:.4g} kPa")
+            last = [0.0]
 
-        def tick(p: float, n: int) -> None:
-            if progress is not None and time.perf_counter() - last[0] > 30:
-                last[0] = time.perf_counter()
-                progress(f"device FE {key}: {n} points, {p / 1e3:.4g} kPa, "
-                         f"{time.perf_counter() - t0:.0f} s")
+            def tick(p: float, n: int) -> None:
+                if progress is not None and time.perf_counter() - last[0] > 30:
+                    last[0] = time.perf_counter()
+                    progress(f"device FE {key}: {n} points, {p / 1e3:.4g} kPa, "
+                             f"{time.perf_counter() - t0:.0f} s")
 
-        ckpt = PathCheckpoint(folder / f"{key}.resume", key)
-        result = simulate_device(as_written(ev), FESettings(**kw), progress=tick,
-                                 checkpoint=ckpt)
-        rows = fe_measure(target, ev, result)
+            ckpt = PathCheckpoint(folder / f"{key}.resume", key)
+            result = simulate_device(as_written(ev), FESettings(**kw), progress=tick,
+                                     checkpoint=ckpt)
+            rows = fe_measure(target, ev, result)
+            stats = {k: v for k, v in result.stats.items()
+                     if isinstance(v, (int, float, str, bool)) or v is None}
+            label = "device FE"
+            points = len(result.pressure)
+            top = float(np.max(result.pressure))
+            done_text = f"{points} points"
         saved = {"format": FE_CHECK_FORMAT, "key": key, "route": route, "settings": kw,
-                 "wall_time_s": time.perf_counter() - t0, "points": len(result.pressure),
-                 "top_pressure": float(np.max(result.pressure)),
-                 "stats": {k: v for k, v in result.stats.items()
-                           if isinstance(v, (int, float, str, bool)) or v is None},
-                 "stages": rows}
+                 "wall_time_s": time.perf_counter() - t0, "points": points,
+                 "top_pressure": top, "stats": stats, "stages": rows}
         _save(done, saved)
-        ckpt.clear()
+        if ckpt is not None:
+            ckpt.clear()
         if progress is not None:
-            progress(f"device FE {key}: done in {saved['wall_time_s']:.0f} s, "
-                     f"{saved['points']} points")
+            progress(f"{label} {key}: done in {saved['wall_time_s']:.0f} s, {done_text}")
         if records is not None:
             records.append({**saved, "reused": False})
         return [_score(target, ev, rows)]

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 __all__ = ["COLOURS", "Curve", "Figure", "curves_vs_pressure", "kpa", "plotly",
+           "pressure_slider_scene",
            "table", "write_page"]
 
 COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b")
@@ -114,3 +115,23 @@ def write_page(path: str | os.PathLike[str], title: str,
             f"{body}\n</body></html>\n")
     with open(path, "w", encoding="utf-8") as fh:
         fh.write(page)
+
+
+def pressure_slider_scene(fig: Any, centre: Any, half: float, title: str,
+                          names: Sequence[str], revision: str) -> Any:
+    """Lay out a 3D figure whose frames are named by their pressure (kPa): a cube scene of
+    half-width ``half`` (mm) about ``centre``, axes in mm, and a slider over ``names``
+    that shows each frame at once. Returns ``fig``."""
+    axis = {k: {"range": [centre[n] - half, centre[n] + half], "title": f"{k[0]} (mm)",
+                "autorange": False} for n, k in enumerate(("xaxis", "yaxis", "zaxis"))}
+    fig.update_layout(
+        title=title, height=620, margin={"t": 50, "b": 10},
+        scene={**axis, "aspectmode": "cube"}, uirevision=revision,
+        sliders=[{"active": 0, "currentvalue": {"prefix": "P = ", "suffix": " kPa"},
+                  "pad": {"t": 10}, "steps": [
+                      {"label": name, "method": "animate",
+                       "args": [[name], {"mode": "immediate", "frame": {"duration": 0,
+                                                                         "redraw": True},
+                                         "transition": {"duration": 0}}]}
+                      for name in names]}])
+    return fig

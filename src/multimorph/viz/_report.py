@@ -23,7 +23,15 @@ from typing import Any
 import numpy as np
 
 from multimorph.viz._bodies import body_polygons
-from multimorph.viz._html import COLOURS, Figure, kpa, plotly, table, write_page
+from multimorph.viz._html import (
+    COLOURS,
+    Figure,
+    kpa,
+    plotly,
+    pressure_slider_scene,
+    table,
+    write_page,
+)
 
 __all__ = ["curves_figure", "device_blocks", "device_figure", "device_report_html",
            "sequence_figure", "stage_table"]
@@ -167,19 +175,7 @@ def device_figure(result: Any, pressures: Sequence[float]) -> Any:
         go.Frame(data=traces(frame, full=False), name=name,
                  layout={"title": {"text": title.format(name)}})
         for frame, name in zip(meshes, names, strict=True)])
-    axis = {k: {"range": [centre[n] - half, centre[n] + half], "title": f"{k[0]} (mm)",
-                "autorange": False} for n, k in enumerate(("xaxis", "yaxis", "zaxis"))}
-    fig.update_layout(
-        title=title.format(names[0]), height=620, margin={"t": 50, "b": 10},
-        scene={**axis, "aspectmode": "cube"}, uirevision="device",
-        sliders=[{"active": 0, "currentvalue": {"prefix": "P = ", "suffix": " kPa"},
-                  "pad": {"t": 10}, "steps": [
-                      {"label": name, "method": "animate",
-                       "args": [[name], {"mode": "immediate", "frame": {"duration": 0,
-                                                                         "redraw": True},
-                                         "transition": {"duration": 0}}]}
-                      for name in names]}])
-    return fig
+    return pressure_slider_scene(fig, centre, half, title.format(names[0]), names, "device")
 
 
 def stage_table(result: Any, summary: Mapping[str, Any]) -> str:

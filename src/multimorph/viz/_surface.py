@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from multimorph.viz._html import plotly
+from multimorph.viz._html import plotly, pressure_slider_scene
 
 __all__ = ["surface_bytes", "surface_figure"]
 
@@ -68,16 +68,5 @@ def surface_figure(points: np.ndarray, quads: np.ndarray,
         go.Frame(data=[trace(xyz, value, full=False)], name=name,
                  layout={"title": {"text": f"{title}: P = {name} kPa"}})
         for xyz, value, name in zip(shapes, colour, names, strict=True)])
-    axis = {k: {"range": [centre[n] - half, centre[n] + half], "title": f"{k[0]} (mm)",
-                "autorange": False} for n, k in enumerate(("xaxis", "yaxis", "zaxis"))}
-    fig.update_layout(
-        title=f"{title}: P = {names[0]} kPa", height=620, margin={"t": 50, "b": 10},
-        scene={**axis, "aspectmode": "cube"}, uirevision="surface",
-        sliders=[{"active": 0, "currentvalue": {"prefix": "P = ", "suffix": " kPa"},
-                  "pad": {"t": 10}, "steps": [
-                      {"label": name, "method": "animate",
-                       "args": [[name], {"mode": "immediate", "frame": {"duration": 0,
-                                                                         "redraw": True},
-                                         "transition": {"duration": 0}}]}
-                      for name in names]}])
-    return fig
+    return pressure_slider_scene(fig, centre, half, f"{title}: P = {names[0]} kPa", names,
+                                 "surface")
