@@ -87,3 +87,48 @@ def test_designed_twist_strips_fit_on_their_shaft() -> None:
     module = device.module(twist.name)
     assert module.strips == 3
     twisting_module_mesh(module, "coarse")        # no "strips do not fit" refusal
+
+
+def _tilted_fe_response(module, p_max: float, pc: float, width: float, gamma_max: float):
+    """A tilted cell's FE response: its strip shear γ(P) (tanh, steepest at ``pc``) as the FE
+    records it (``extra["shear"]``, of the opposite sign to the tilt), no bend."""
+    P = np.linspace(0.0, p_max, 201)
+    z = np.zeros_like(P)
+    gamma = 0.5 * gamma_max * (1 + np.tanh((P - pc) / width))
+    fe_sign = -np.sign(module.tilt)
+    path = EquilibriumPath(P, z, z, z + 1, 1 + P, z + 1.5, np.ones_like(P, bool),
+                           extra={"shear": fe_sign * gamma})
+    return build_response(path, length=module.cell.length, shear_modulus=1e5, backend="fe"), \
+        gamma
+
+
+@pytest.mark.parametrize("sign", [1.0, -1.0])
+def test_the_strip_twist_route_twists_the_module_by_its_shaft_kinematics(sign) -> None:
+    from dataclasses import replace
+
+    from multimorph.design import TWIST_ROUTES, strip_twist_response
+    from multimorph.device import module_strains
+
+    gripper = device_from_spec(load_toml(EXAMPLES / "gripper.toml"))
+    module = gripper.module("twister")
+    module = replace(module, tilt=sign * abs(module.tilt))
+    cell_resp, gamma = _tilted_fe_response(module, 60e3, 30e3, 3e3, 0.4)
+    r = strip_twist_response(module, cell_resp)
+    # τ = γ / R, R the shaft radius plus half the strip's height, in the tilt's sense
+    R = module.shaft_radius + 0.5 * module.cell.height
+    assert np.allclose(r.path.twist_rate, gamma / R)
+    assert r.length == pytest.approx(module.length)
+    # Pc and Ph are those of the strip shear; the motion is the twist angle τ(Ph)·L
+    pc, ph, mag, _ = module_measure("twist", r, module.length, 60e3)
+    assert pc == pytest.approx(30e3, rel=0.02) and pc < ph < 60e3
+    assert mag == pytest.approx(float(np.interp(ph, r.loading.pressure, gamma / R))
+                                * module.length, rel=1e-6)
+    # the same twist as the cell models' module reads from a tilted cell's shear
+    sensed = replace(cell_resp.path, extra={"shear": gamma})
+    model_side = module_strains(module, build_response(
+        sensed, length=module.cell.length, shear_modulus=1e5, backend="fe"))
+    assert np.allclose(np.abs(model_side.twist), np.interp(
+        model_side.pressure, r.path.pressure, r.path.twist_rate))
+    assert TWIST_ROUTES[0] == "strip"
+    with pytest.raises(MultimorphError, match="--fe-twist"):
+        fe_checker(Path("."), twist="spiral")

@@ -91,6 +91,11 @@ def design_command(
                            "own, on the common pressure; default) or device (the whole "
                            "device as one problem; it stops at the first module's limit "
                            "point).")] = "modules",
+    fe_twist: Annotated[str, typer.Option(
+        "--fe-twist", help="On the modules route, how FE inflates a twisting module: strip "
+                           "(one tilted cell of its strips in FE, twisted by the module's "
+                           "shaft kinematics; default, minutes) or shaft (its strips on the "
+                           "shaft as one FE problem; hours on 2 cores).")] = "strip",
     vectorised: Annotated[bool, typer.Option(
         "--vectorised", help="Trace each batch with the vmapped ROM (default: a loop of "
         "single-design traces, faster on small CPUs today).")] = False,
@@ -153,6 +158,11 @@ def design_command(
         if fe_route not in FE_ROUTES:
             raise SpecError(f"--fe-route: expected one of {', '.join(FE_ROUTES)}, got "
                             f"{fe_route!r}")
+        from multimorph.design import TWIST_ROUTES
+
+        if fe_twist not in TWIST_ROUTES:
+            raise SpecError(f"--fe-twist: expected one of {', '.join(TWIST_ROUTES)}, got "
+                            f"{fe_twist!r}")
         if verify_fe:
             ok, why = fe_available()
             if not ok:
@@ -181,7 +191,7 @@ def design_command(
                              robustness_samples=robustness,
                              fe_rounds=(fe_rounds or 0) if verify_fe else None,
                              fe_folder=Path(str(folder) + ".fe"), fe_mesh=fe_mesh,
-                             fe_route=fe_route,
+                             fe_route=fe_route, fe_twist=fe_twist,
                              progress=lambda done, total, phase: update(
                                  min(done, total), total, phase=f"search: {phase}"),
                              stage=lambda text: update(None, phase=text))

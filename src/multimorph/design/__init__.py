@@ -6,7 +6,13 @@ explanation when none can, and Monte Carlo robustness figures. See ``docs/design
 """
 
 from multimorph.design._evaluate import Evaluation, StageResult, evaluate_one
-from multimorph.design._fe_check import FE_ROUTES, fe_checker, module_measure
+from multimorph.design._fe_check import (
+    FE_ROUTES,
+    TWIST_ROUTES,
+    fe_checker,
+    module_measure,
+    strip_twist_response,
+)
 from multimorph.design._mapped import (
     Checker,
     MappingRound,
@@ -53,6 +59,7 @@ __all__ = [
     "N_VARS",
     "ROM_BATCH_NAMES",
     "STAGE_KINDS",
+    "TWIST_ROUTES",
     "VAR_NAMES",
     "BatchModel",
     "Candidate",
@@ -88,6 +95,7 @@ __all__ = [
     "rom_batch_model",
     "run_design",
     "single_cell",
+    "strip_twist_response",
     "target_from_spec",
     "write_design_report",
 ]

@@ -12,8 +12,16 @@ model's (:func:`~multimorph.design.score_measured`). The device is the one its
     or stretching module as its cells in series (:func:`multimorph.fe.simulate_cell` with
     ``n_cells``, the FE reference data set's mesh: 2 elements through every wall, in-plane
     edges d/20; its far end tied to a rigid plate where the device joins it to the next
-    module or a hub, free at a tip: :func:`module_end`), a twisting module as its strips
-    around the shaft (:func:`multimorph.fe.simulate_twisting_module`). On one pressure line
+    module or a hub, free at a tip: :func:`module_end`). A twisting module (``twist``,
+    :data:`TWIST_ROUTES`) as one tilted cell of its strips in FE, as inside a strip (the
+    tilted FE data set's cell: full model, its far end tied to a rigid plate, in-plane edges
+    d/16), whose in-plane strip shear γ(P) the module's shaft kinematics turn into its twist
+    (τ = γ / R, :func:`multimorph.device.path_strains`, as the cell models' twisting
+    modules do) — ``"strip"``, the default — or as its strips around the shaft in one FE
+    problem (:func:`multimorph.fe.simulate_twisting_module`, ``"shaft"``: the shaft's
+    torsion and the strips' ends in FE too, but on this 2-core machine hours for one
+    module: the gripper's twister took 7 min to mesh and 11 min for its first 3 points).
+    On one pressure line
     each module's state is its own equilibrium at that pressure; its neighbours move its
     base as a rigid body (series) or not at all (fingers on a hub), so the stages are those
     of the device up to the coupling through the shared end walls, which this route
@@ -47,13 +55,16 @@ from multimorph.design._evaluate import Evaluation, Measured, score_measured
 from multimorph.design._target import TargetSpec
 from multimorph.errors import MultimorphError
 
-__all__ = ["FE_ROUTES", "as_written", "fe_checker", "fe_measure", "module_end",
-           "module_measure"]
+__all__ = ["FE_ROUTES", "TWIST_ROUTES", "as_written", "fe_checker", "fe_measure",
+           "module_end", "module_measure", "strip_twist_response"]
 
 FE_CHECK_FORMAT = "multimorph-fe-check/1"
 #: How :func:`fe_checker` inflates a design (see the module docstring); the first is the
 #: default.
 FE_ROUTES = ("modules", "device")
+#: How the ``modules`` route inflates a twisting module (see the module docstring); the
+#: first is the default.
+TWIST_ROUTES = ("strip", "shaft")
 
 
 def _module_names(result: Any, stage_name: str) -> list[str]:
@@ -175,6 +186,8 @@ def _fingerprint(ev: Evaluation, options: dict[str, Any]) -> str:
 #: mesh, docs/validation.md), so that the check and the calibration see the same FE.
 MODULE_WALL_ELEMENTS = 2
 MODULE_LENGTH_FRACTION = 0.05
+#: The ``strip`` twist route's in-plane edge (a fraction of d): the tilted FE data set's.
+STRIP_LENGTH_FRACTION = 0.0625
 #: The ``modules`` route's most continuation points per module (the data set's 150 with
 #: room for the longer paths of modules of several cells).
 MODULE_MAX_STEPS = 250
@@ -183,7 +196,7 @@ MODULE_MAX_STEPS = 250
 def fe_checker(folder: str | Path, *, mesh: str = "coarse",
                wall_elements: int | None = None, max_steps: int = 400,
                max_volume_ratio: float = 25.0, dx_max: float = 0.04,
-               route: str = "modules",
+               route: str = "modules", twist: str = "strip",
                progress: Callable[[str], None] | None = None,
                records: list[dict[str, Any]] | None = None) -> Callable[..., list[Evaluation]]:
     """A checker (see :func:`~multimorph.design.mapped_design`) that runs the FE of the
@@ -198,6 +211,10 @@ def fe_checker(folder: str | Path, *, mesh: str = "coarse",
     route : {"modules", "device"}
         Each stage's module on its own, or the whole device as one problem
         (:data:`FE_ROUTES`, the module docstring says why ``modules`` is the default).
+    twist : {"strip", "shaft"}
+        On the ``modules`` route, a twisting module as one tilted cell of its strips with
+        the module's shaft kinematics, or as its strips on the shaft in one FE problem
+        (:data:`TWIST_ROUTES`).
     mesh, wall_elements, max_steps, max_volume_ratio, dx_max
         FE settings of the ``device`` route and of twisting modules
         (:class:`multimorph.fe.FESettings`); bending and stretching modules on the
@@ -217,6 +234,9 @@ def fe_checker(folder: str | Path, *, mesh: str = "coarse",
     if route not in FE_ROUTES:
         raise MultimorphError(f"--fe-route: expected one of {', '.join(FE_ROUTES)}, got "
                               f"{route!r}")
+    if twist not in TWIST_ROUTES:
+        raise MultimorphError(f"--fe-twist: expected one of {', '.join(TWIST_ROUTES)}, got "
+                              f"{twist!r}")
 
     def check(target: TargetSpec, evs: Sequence[Evaluation]) -> list[Evaluation]:
         if not evs:
@@ -232,7 +252,8 @@ def fe_checker(folder: str | Path, *, mesh: str = "coarse",
         # (the modules route's measure: since stop 27 a free tip's bend is read without the
         # edge under its end wall; earlier results are not re-used)
         key = _fingerprint(ev, {**kw, "wall_elements": wall_elements,
-                                **({"route": route, "tip": "inner-edge"}
+                                **({"route": route, "tip": "inner-edge",
+                                    **({"twist": twist} if twist != "shaft" else {})}
                                    if route != "device" else {})})
         if wall_elements is not None:
             from dataclasses import replace as _replace
@@ -254,7 +275,7 @@ def fe_checker(folder: str | Path, *, mesh: str = "coarse",
         ckpt = None
         if route == "modules":
             rows, stats = _modules_route(target, ev, kw, folder, key, progress,
-                                         wall_elements)
+                                         wall_elements, twist)
             label = "module FE"
             points = sum(int(st["points"]) for st in stats.values())
             top = min(r["top_pressure"] for r in rows)
@@ -303,7 +324,7 @@ def _save(path: Path, saved: dict[str, Any]) -> None:
 
 def _modules_route(target: TargetSpec, ev: Evaluation, kw: dict[str, Any], folder: Path,
                    key: str, progress: Callable[[str], None] | None,
-                   wall_elements: int | None = None,
+                   wall_elements: int | None = None, twist: str = "strip",
                    ) -> tuple[list[dict[str, Any]], dict[str, dict[str, Any]]]:
     """Each stage's module inflated on its own (the ``modules`` route): its rows as
     :func:`fe_measure` gives them and each run's statistics. Every finished module is kept
@@ -326,6 +347,8 @@ def _modules_route(target: TargetSpec, ev: Evaluation, kw: dict[str, Any], folde
     for stage, sr, cell in zip(target.stages, ev.stages, ev.candidate.cells, strict=True):
         module = device.module(stage.name)
         end = module_end(device, stage.name)
+        if module.kind == "twisting":
+            end = "strip" if twist == "strip" else "shaft"
         part = folder / f"{key}.modules" / f"{_slug(stage.name)}-{end}.json"
         part.parent.mkdir(parents=True, exist_ok=True)
         if part.exists():
@@ -349,7 +372,16 @@ def _modules_route(target: TargetSpec, ev: Evaluation, kw: dict[str, Any], folde
             progress(f"module FE {key}: {stage.name} ({module.kind}, {module.n_cells} cells) "
                      f"to {pmax / 1e3:.4g} kPa")
         ckpt = PathCheckpoint(part.with_suffix(".resume"), f"{key}-{stage.name}")
-        if module.kind == "twisting":
+        if module.kind == "twisting" and twist == "strip":
+            settings = FESettings(**{**kw, "half": False,
+                                     "max_steps": min(kw["max_steps"], MODULE_MAX_STEPS),
+                                     "mesh": MeshDensity(
+                                         wall_elements=wall_elements or MODULE_WALL_ELEMENTS,
+                                         length_fraction=STRIP_LENGTH_FRACTION)})
+            res = simulate_cell(module.cell, settings, n_cells=1, tilt=module.tilt,
+                                progress=tick, checkpoint=ckpt, end="plate")
+            response, length = strip_twist_response(module, res.response), module.length
+        elif module.kind == "twisting":
             res = simulate_twisting_module(replace(module, start=0.0), FESettings(**kw),
                                            p_max=pmax, progress=tick, checkpoint=ckpt)
             response, length = res.response, module.length
@@ -368,13 +400,43 @@ def _modules_route(target: TargetSpec, ev: Evaluation, kw: dict[str, Any], folde
         st = {k: v for k, v in res.stats.items()
               if isinstance(v, (int, float, str, bool)) or v is None}
         st["wall_time_s"] = time.perf_counter() - t0
-        st["end"] = end if module.kind != "twisting" else "shaft"
+        st["end"] = end
         _save(part, {"format": FE_CHECK_FORMAT, "key": key, "module": stage.name,
                      "row": row, "stats": st})
         ckpt.clear()
         rows.append(row)
         stats[stage.name] = st
     return rows, stats
+
+
+def strip_twist_response(module: Any, cell_response: Any) -> Any:
+    """A twisting module's response from the FE of one tilted cell of its strips
+    (:func:`multimorph.fe.simulate_cell` with ``tilt``, a full model): the strip's in-plane
+    shear γ in the sense of the tilt, turned into the module's twist rate |τ| = γ / R by the
+    module's shaft kinematics (:func:`multimorph.device.path_strains`), on the module's
+    length; Pc and Ph read on it are the strip shear's (a constant factor does not move
+    them)."""
+    from dataclasses import replace
+
+    from multimorph.device import path_strains
+    from multimorph.response import build_response
+
+    path = cell_response.path
+    extra = dict(path.extra or {})
+    if "shear" not in extra:
+        raise MultimorphError("strip FE: the tilted cell's path has no strip shear (a full "
+                              "model records it)")
+    sense = -math.copysign(1.0, module.tilt)  # the FE shear's sign against the tilt's sense
+    gamma = sense * np.asarray(extra["shear"], float)
+    extra["shear"] = gamma
+    tau = path_strains(module, replace(path, extra=extra))["twist"]
+    twist = math.copysign(1.0, module.tilt) * np.asarray(tau, float)  # in the tilt's sense
+    return build_response(replace(path, twist_rate=twist, extra=extra), length=module.length,
+                          shear_modulus=cell_response.shear_modulus, backend="fe",
+                          break_stretch=module.cell.material.break_stretch,
+                          signal="twist_rate",
+                          meta={**cell_response.meta, "module": module.name,
+                                "kind": module.kind, "fe_twist": "strip"})
 
 
 def module_end(device: Any, name: str) -> str:

@@ -166,6 +166,9 @@ class DesignResult:
     """The FE evaluation of the best FE-checked design (``designs[0]``), if any."""
     fe_route: str | None = None
     """How FE inflated the designs (:data:`multimorph.design.FE_ROUTES`); ``None``: no FE."""
+    fe_twist: str | None = None
+    """How the ``modules`` route inflated twisting modules
+    (:data:`multimorph.design.TWIST_ROUTES`); ``None``: no module FE."""
 
     @property
     def fe_verified(self) -> bool | None:
@@ -195,6 +198,7 @@ class DesignResult:
             "rounds": [r.to_dict() for r in self.rounds],
             "fe_verified": self.fe_verified,
             "fe_route": self.fe_route,
+            "fe_twist": self.fe_twist,
             "fe_rounds": [r.to_dict() for r in self.fe_rounds],
             "fe": None if self.fe_best is None else self.fe_best.to_dict(),
         }

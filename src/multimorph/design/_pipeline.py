@@ -84,7 +84,8 @@ def run_design(target: TargetSpec, settings: DesignSettings, *,
                search_model: BatchModel | None = None, rounds: int = 3,
                fe_rounds: int | None = None, fe_folder: Path | None = None,
                fe_mesh: str = "coarse", fe_wall_elements: int | None = None,
-               fe_max_steps: int = 400, fe_route: str = "modules") -> DesignRun:
+               fe_max_steps: int = 400, fe_route: str = "modules",
+               fe_twist: str = "strip") -> DesignRun:
     """Design a device for ``target``, then check the best design.
 
     Parameters
@@ -118,6 +119,10 @@ def run_design(target: TargetSpec, settings: DesignSettings, *,
     fe_route : {"modules", "device"}
         How FE inflates a design (:data:`~multimorph.design.FE_ROUTES`): each stage's
         module on its own (default), or the whole device as one problem.
+    fe_twist : {"strip", "shaft"}
+        On the ``modules`` route, a twisting module as one tilted cell of its strips with
+        the module's shaft kinematics (default), or its strips on the shaft in one FE
+        problem (:data:`~multimorph.design.TWIST_ROUTES`).
     stage : callable, optional
         ``stage(description)`` when a later step begins (robustness, FE check).
 
@@ -158,7 +163,7 @@ def run_design(target: TargetSpec, settings: DesignSettings, *,
                               "multimorph-out") / "fe-rounds",
                           mesh=fe_mesh, wall_elements=fe_wall_elements,
                           max_steps=fe_max_steps, stage=stage,
-                          records=fe_records, route=fe_route)
+                          records=fe_records, route=fe_route, twist=fe_twist)
     result = replace(result, target=searched, wanted=wanted)
     target = result.target            # the searched stages (graded parts included)
     best = result.best
@@ -192,11 +197,12 @@ def _fe_loop(searched: TargetSpec, result: DesignResult, search: Callable[..., D
              *, fe_rounds: int, model: Any, folder: Path, mesh: str,
              wall_elements: int | None, stage: Callable[[str], None] | None,
              records: list[Any], max_steps: int = 400, route: str = "modules",
+             twist: str = "strip",
              ) -> DesignResult:
     """FE in the loop: device FE of the best design; where it misses, the model corrected
     by the FE/model ratio of the best FE-checked design and the search run again near it."""
     check = fe_checker(folder, mesh=mesh, wall_elements=wall_elements, max_steps=max_steps,
-                       route=route,
+                       route=route, twist=twist,
                        progress=(lambda text: stage(text)) if stage is not None else None,
                        records=records)
     pmax = searched.constraints.max_pressure
@@ -228,6 +234,7 @@ def _fe_loop(searched: TargetSpec, result: DesignResult, search: Callable[..., D
     assert best_fe is not None
     others = [d for d in result.designs if d.candidate is not best_fe[0].candidate]
     return replace(result, fe_rounds=tuple(rounds), fe_best=best_fe[1], fe_route=route,
+                   fe_twist=twist if route == "modules" else None,
                    designs=[best_fe[0], *others])
 
 

@@ -241,7 +241,10 @@ def report_markdown(result: DesignResult, robust: RobustnessReport | None = None
         verdict = ("**FE-verified**: 3D FE meets every target" if result.fe_verified
                    else "**not FE-verified**: 3D FE misses a target (below)")
         how = ("each stage's module inflated on its own in 3D FE, on the common pressure "
-               "(route `modules`: the coupling through the shared end walls is left out)"
+               "(route `modules`: the coupling through the shared end walls is left out"
+               + ("; a twisting module as one tilted cell of its strips in FE, its twist by "
+                  "the module's shaft kinematics τ = γ / R" if result.fe_twist == "strip"
+                  and any(s.kind == "twist" for s in result.target.stages) else "") + ")"
                if result.fe_route == "modules" else
                "the whole device inflated as one 3D FE problem (route `device`)")
         L += ["## 3D FE verification of the device", "", verdict + ".", "", how + ".", "",

@@ -8,7 +8,13 @@ from multimorph.device._kinematics import (
     frames_along,
     segment_transform,
 )
-from multimorph.device._modules import MODULE_KINDS, Module, ModuleStrains, module_strains
+from multimorph.device._modules import (
+    MODULE_KINDS,
+    Module,
+    ModuleStrains,
+    module_strains,
+    path_strains,
+)
 from multimorph.device._sequence import ModuleCurve, SequenceReport, analyse_sequence
 from multimorph.device._shape import Body, DeviceShape, Hub, device_shape
 from multimorph.device._simulate import DeviceResult, default_cell_model, simulate_device
@@ -33,6 +39,7 @@ __all__ = [
     "device_shape",
     "frames_along",
     "module_strains",
+    "path_strains",
     "segment_transform",
     "simulate_device",
 ]

@@ -39,7 +39,7 @@ from multimorph.errors import SpecError
 from multimorph.geometry import CellGeometry
 from multimorph.response import Response
 
-__all__ = ["MODULE_KINDS", "Module", "ModuleStrains", "module_strains"]
+__all__ = ["MODULE_KINDS", "Module", "ModuleStrains", "module_strains", "path_strains"]
 
 MODULE_KINDS = ("bending", "stretching", "twisting")
 MODE_OF_KIND = {"bending": "bend", "stretching": "stretch", "twisting": "twist"}
@@ -172,7 +172,11 @@ def _mid_stretch(path: Any, cell: CellGeometry) -> np.ndarray:
                                              * 0.5 * cell.height)
 
 
-def _strains_on(module: Module, path: Any) -> dict[str, np.ndarray]:
+def path_strains(module: Module, path: Any) -> dict[str, np.ndarray]:
+    """The module's strains per unit length along one path of its cell (an
+    :class:`~multimorph.response.EquilibriumPath` or an observed curve): ``bend`` (1/m),
+    ``twist`` (rad/m), ``stretch``, ``bulge`` and ``measure`` (bend angle, twist angle or
+    stretch − 1, the module's motion), by the kinematics of the module docstring."""
     cell = module.cell
     kappa = np.asarray(path.curvature, float)
     zero = np.zeros_like(kappa)
@@ -206,8 +210,8 @@ def _strains_on(module: Module, path: Any) -> dict[str, np.ndarray]:
 
 def module_strains(module: Module, response: Response) -> ModuleStrains:
     """Turn a cell :class:`Response` into the module's strains on the observed curves."""
-    load = _strains_on(module, response.loading)
-    unload = _strains_on(module, response.unloading)
+    load = path_strains(module, response.loading)
+    unload = path_strains(module, response.unloading)
     return ModuleStrains(
         module=module,
         pressure=np.asarray(response.loading.pressure, float),

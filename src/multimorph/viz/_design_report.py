@@ -96,8 +96,13 @@ def fe_verification_blocks(report: Mapping[str, Any], model: str) -> list[str]:
     verdict = ("<b>FE-verified</b>: 3D FE meets every target"
                if report.get("fe_verified") else
                "<b>Not FE-verified</b>: 3D FE misses a target")
+    strip = (report.get("fe_twist") == "strip"
+             and any(st["kind"] == "twist" for rd in rounds for st in rd["stages"]))
     verdict += (" (each stage's module inflated on its own, on the common pressure: route "
-                "<code>modules</code>)" if report.get("fe_route") == "modules" else
+                "<code>modules</code>" + ("; twisting modules as one tilted cell of their "
+                                          "strips, twisted by the shaft kinematics"
+                                          if strip else "") + ")"
+                if report.get("fe_route") == "modules" else
                 " (the whole device as one FE problem: route <code>device</code>)"
                 if report.get("fe_route") == "device" else "")
     rows = []
