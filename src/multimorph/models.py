@@ -131,6 +131,7 @@ def batch_model(name: str | None = None, *, fallback: bool = True,
             return {kind: k.box for kind, k in (m.fast_kinds if fast else m.kinds).items()}
 
         calibrated.batched = True  # type: ignore[attr-defined]
+        calibrated.tilted = True  # type: ignore[attr-defined]  # answers the strip shear
         calibrated.fixed_shape = False  # type: ignore[attr-defined]  # nothing to compile
         calibrated.support_boxes = support_boxes  # type: ignore[attr-defined]
         return calibrated

@@ -111,6 +111,8 @@ class CalibratedModel:
                 into[kind] = _Kind(kind, MultiOutputGP.from_arrays(arrays, p), box,
                                    np.asarray(arrays[f"{p}feature_mean"]),
                                    np.asarray(arrays[f"{p}feature_std"]), anchors)
+        #: the tilted cells' calibrated strip-shear factor on the Ritz rule (``_shear``)
+        self.twisting_shear: dict[str, Any] | None = manifest.get("twisting_shear")
         self.emulators = {fam: MultiOutputGP.from_arrays(arrays, f"emulator/{fam}/")
                           for fam in manifest.get("emulators", {})}
         self.emulator_boxes = {}
@@ -245,13 +247,15 @@ class CalibratedModel:
             by_kind.setdefault(kind_of(c), []).append(i)
         for kind, idx in by_kind.items():
             if kind == "twisting" and kind not in kinds:
-                # no tilted-cell calibration yet: the straight cell's calibrated response;
-                # the module takes the strip shear by the Ritz rule γ = ε sin 2β from it
+                # no tilted-cell path calibration: the straight cell's calibrated response,
+                # read on the strip shear of the Ritz rule γ = ε sin 2β times the factor
+                # calibrated on the tilted FE cells (``_shear``)
                 straight = self.responses([cells[i].cell for i in idx],  # type: ignore[union-attr]
                                           p_max, fallback=fallback, fast=fast)
                 for i, r in zip(idx, straight, strict=True):
                     out[i] = (r if isinstance(r, Exception)
-                              else _straight_for_tilted(r, cells[i]))  # type: ignore[arg-type]
+                              else _straight_for_tilted(r, cells[i],  # type: ignore[arg-type]
+                                                        self.twisting_shear))
                 continue
             if kind not in kinds:
                 for i in idx:
@@ -357,24 +361,38 @@ class CalibratedModel:
         return resp.with_meta(**meta)
 
 
-def _straight_for_tilted(r: Response, cell: TiltedCell) -> Response:
+def _straight_for_tilted(r: Response, cell: TiltedCell,
+                         shear_fit: dict[str, Any] | None = None) -> Response:
     """A straight cell's response standing for its tilted cell (see :meth:`responses`):
-    the same path, read on the strip shear of the Ritz rule γ = ε sin 2|β| (ε the
-    mid-height strain along the chamber), kept as ``extra["shear"]`` as a calibrated
-    tilted cell would give it (the twisting module reads it the same way)."""
+    the same path, read on the strip shear γ = c · ε sin 2|β| (ε the mid-height strain
+    along the chamber; c the factor calibrated on the tilted FE cells, :mod:`._shear`, or 1
+    without one: the Ritz rule), kept as ``extra["shear"]`` as a calibrated tilted cell
+    would give it (the twisting module reads it the same way)."""
     if not str(r.meta.get("model", "")).startswith("calibrated"):
         return r  # the Ritz fallback of a straight cell outside the box: as the Ritz model
+    from multimorph.calibrated._box import cell_groups
+    from multimorph.calibrated._shear import shear_factor
+
     c = cell.cell
     path = r.path
+    factor, sigma, inside = shear_factor(shear_fit, abs(cell.tilt), cell_groups(cell)["jm"])
     mid = np.asarray(path.axial_stretch) * (1.0 + np.asarray(path.curvature) * 0.5
                                             * c.height) - 1.0
-    gamma = mid * math.sin(2.0 * abs(cell.tilt))
+    gamma = factor * mid * math.sin(2.0 * abs(cell.tilt))
     path = replace(path, twist_rate=gamma, extra={**(path.extra or {}), "shear": gamma})
     resp = build_response(path, length=c.length, shear_modulus=c.mu, backend=r.backend,
                           break_stretch=c.material.break_stretch, signal="twist_rate")
     cal = dict(r.meta.get("calibration") or {})
-    cal["twisting"] = ("no FE calibration of tilted cells yet: the straight cell's response; "
-                       "the strip shear follows the Ritz rule γ = ε sin 2β")
+    if shear_fit:
+        cal["twisting"] = ("the straight cell's calibrated response; the strip shear by the "
+                           "Ritz rule γ = ε sin 2β times a factor calibrated on "
+                           f"{shear_fit['training_designs']} tilted FE cells"
+                           + ("" if inside else " (held at the edge of its tilts and Jm)"))
+        cal["shear_factor"] = factor
+        cal["shear_factor_range"] = [factor * math.exp(-sigma), factor * math.exp(sigma)]
+    else:
+        cal["twisting"] = ("no FE calibration of tilted cells: the straight cell's response; "
+                           "the strip shear follows the Ritz rule γ = ε sin 2β")
     return resp.with_meta(**{**r.meta, "calibration": cal})
 
 

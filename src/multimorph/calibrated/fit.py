@@ -2,6 +2,7 @@
 
     python -m multimorph.calibrated.fit ritz-table [--samples 2048]   # Ritz features (resumable)
     python -m multimorph.calibrated.fit model [--emulators]            # fit data/model.npz
+    python -m multimorph.calibrated.fit twist-shear                    # tilted cells' shear factor
 
 The FE reference data set comes first (``python -m multimorph.calibrated.build_dataset``).
 """
@@ -21,11 +22,18 @@ def main(argv: list[str] | None = None) -> int:
     md.add_argument("--emulators", action="store_true",
                     help="also emulate the Ritz features from the Ritz table (faster at run "
                          "time, less accurate); default: exact Ritz features at run time")
+    sub.add_parser("twist-shear", help="fit the tilted cells' strip-shear factor on the "
+                   "shipped model (also done by 'model')")
     args = ap.parse_args(argv)
     if args.what == "ritz-table":
         from multimorph.calibrated._ritz_table import build_ritz_table
 
         build_ritz_table(args.samples, args.chunk)
+        return 0
+    if args.what == "twist-shear":
+        from multimorph.calibrated._fit import fit_twist_shear
+
+        fit_twist_shear()
         return 0
     from multimorph.calibrated._fit import fit_and_save
 

@@ -14,7 +14,7 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from multimorph.errors import MultimorphError
-from multimorph.geometry import CellGeometry
+from multimorph.geometry import CellGeometry, TiltedCell
 from multimorph.outcome import Outcome
 from multimorph.response import Response
 
@@ -201,8 +201,15 @@ class CountingModel:
         fn = getattr(self.model, "support_boxes", None)
         return fn() if callable(fn) else None
 
-    def __call__(self, cells: Sequence[CellGeometry], p_max: float) -> list[Any]:
-        cells = list(cells)
+    @property
+    def tilted(self) -> bool:
+        """Whether the wrapped model answers tilted cells (``tilted = True`` on it)."""
+        return bool(getattr(self.model, "tilted", False))
+
+    def __call__(self, cells: Sequence[CellGeometry | TiltedCell], p_max: float) -> list[Any]:
+        # a model that does not know tilted cells gets the straight cell (its module then
+        # takes the strip shear by the Ritz rule)
+        cells = [c if self.tilted or not isinstance(c, TiltedCell) else c.cell for c in cells]
         n = len(cells)
         if n == 0:
             return []
@@ -246,4 +253,6 @@ def single_cell(model: BatchModel) -> CellModel:
             raise r
         return r
 
+    # a device simulation gives a twisting module's tilted cell to a model that knows them
+    fn.tilted = bool(getattr(model, "tilted", False))  # type: ignore[attr-defined]
     return fn

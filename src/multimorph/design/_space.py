@@ -41,7 +41,7 @@ import numpy as np
 from multimorph.design._target import Stage, TargetSpec
 from multimorph.device import Device, Module
 from multimorph.errors import SpecError
-from multimorph.geometry import CellGeometry
+from multimorph.geometry import CellGeometry, TiltedCell
 
 __all__ = ["N_VARS", "VAR_NAMES", "Candidate", "SearchSpace"]
 
@@ -66,6 +66,15 @@ class Candidate:
     cells: tuple[CellGeometry, ...]
     tilts: tuple[float, ...]
     material_index: tuple[tuple[int, int], ...]
+    twisting: tuple[bool, ...] = ()
+    """Which stages are twisting modules (their cells are tilted by ``tilts``)."""
+
+    def model_cells(self) -> tuple[CellGeometry | TiltedCell, ...]:
+        """The cells as a cell model is asked for them: a twisting stage's as its tilted
+        cell (a model that knows tilted cells answers the strip shear; the others get the
+        straight cell, :class:`~multimorph.design.CountingModel`)."""
+        return tuple(TiltedCell(c, t) if i < len(self.twisting) and self.twisting[i] else c
+                     for i, (c, t) in enumerate(zip(self.cells, self.tilts, strict=True)))
 
 
 @dataclass(frozen=True)
@@ -164,7 +173,8 @@ class SearchSpace:
             tilts.append(TILT_RANGE[0] + u[9] * (TILT_RANGE[1] - TILT_RANGE[0]))
             midx.append((im, ib))
         return Candidate(x=x, cells=tuple(cells), tilts=tuple(tilts),
-                         material_index=tuple(midx))
+                         material_index=tuple(midx),
+                         twisting=tuple(s.kind == "twist" for s in self.target.stages))
 
     def corner(self, *, stiff: bool, material: int, bottom: int | None = None) -> np.ndarray:
         """The stiffest (thickest walls, smallest chambers) or softest design of a material."""

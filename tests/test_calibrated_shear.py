@@ -1,0 +1,71 @@
+"""The tilted cells' strip-shear factor of the calibrated model (issue 22): a factor on the
+Ritz rule γ = ε sin 2β fitted on the FE data set's tilted cells (``calibrated._shear``)."""
+
+import copy
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from multimorph.calibrated import load_model
+from multimorph.calibrated._shear import fit_shear_factor, shear_factor
+from multimorph.geometry import CellGeometry, TiltedCell
+from multimorph.io import load_toml
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+
+def test_the_factor_is_held_at_the_edges_of_its_data_and_is_one_without_a_fit() -> None:
+    fit = {"coefficients": [0.0, 1.0, 0.0], "tilt_range": [0.2, 1.0], "jm_range": [10, 80],
+           "sigma_log": 0.2}
+    c, s, inside = shear_factor(fit, 0.5, 30.0)
+    assert c == pytest.approx(math.exp(0.5)) and s == 0.2 and inside
+    hi, _, inside_hi = shear_factor(fit, 1.3, 30.0)          # 74°: beyond the data's 59°
+    assert hi == pytest.approx(math.exp(1.0)) and not inside_hi
+    assert shear_factor(None, 0.5, 30.0) == (1.0, 0.0, False)
+
+
+def test_the_fit_recovers_a_known_factor_and_reports_its_errors() -> None:
+    rng = np.random.default_rng(0)
+    samples = []
+    for i in range(30):
+        tilt, jm = rng.uniform(0.2, 1.0), rng.uniform(10, 80)
+        rule = rng.uniform(0.1, 1.0)
+        fe = rule * math.exp(-0.5 + 0.4 * tilt - 0.1 * math.log(jm))
+        samples.append({"design": i, "holdout": i % 5 == 0, "tilt": tilt, "jm": jm,
+                        "pressure": 3e4, "fe": fe, "rule": rule})
+    fit = fit_shear_factor(samples)
+    assert np.allclose(fit["coefficients"], [-0.5, 0.4, -0.1], atol=1e-9)
+    assert fit["leave_one_out_error"]["median"] < 1e-9
+    assert fit["holdout_error"]["n"] == 6 and fit["training_designs"] == 24
+    with pytest.raises(ValueError, match="at least 9"):
+        fit_shear_factor(samples[:8])
+
+
+def _tilted(deg: float) -> TiltedCell:
+    cell = CellGeometry.from_spec(load_toml(EXAMPLES / "cell.toml")["cell"])
+    return TiltedCell(cell, math.radians(deg))
+
+
+def test_the_shipped_factor_scales_the_shear_and_leaves_pc_ph_alone() -> None:
+    model = load_model()
+    fit = model.twisting_shear
+    assert fit is not None, "the shipped model has no twist shear factor (fit twist-shear)"
+    # FE shears less than the rule: the factor is below 1 over the data, and it beats the
+    # rule out of sample (leave-one-out and on the held-out tilted cells)
+    assert fit["leave_one_out_error"]["median"] < 0.5 * fit["rule_error"]["median"]
+    assert fit["holdout_error"]["median"] < fit["holdout_rule_error"]["median"]
+    bare = copy.copy(model)
+    bare.twisting_shear = None
+    cell = _tilted(30.0)
+    r = model.response(cell, 3e5)
+    r0 = bare.response(cell, 3e5)
+    c = r.meta["calibration"]["shear_factor"]
+    assert 0.2 < c < 1.0
+    lo, hi = r.meta["calibration"]["shear_factor_range"]
+    assert lo < c < hi
+    assert np.allclose(r.path.extra["shear"], c * np.asarray(r0.path.extra["shear"]))
+    assert r.characteristic.critical == pytest.approx(r0.characteristic.critical)
+    assert r.characteristic.hardening == pytest.approx(r0.characteristic.hardening)
+    assert "factor calibrated on" in r.meta["calibration"]["twisting"]
