@@ -5,6 +5,7 @@ Run from the repository root (prints a table; ``--json`` for machines)::
     python benchmarks/verify_designs.py                           # every examples/target_*.toml
     python benchmarks/verify_designs.py --targets jar_lifter --fe-rounds 2
     python benchmarks/verify_designs.py --table-only              # the table of what is there
+    python benchmarks/verify_designs.py --table-only --publish    # verified -> examples/designed
 
 Each target runs as a user runs it: ``multimorph design examples/target_<name>.toml
 --fe-rounds N --out benchmarks/runs/verify/<name>`` (default seed, the calibrated model, the
@@ -73,6 +74,60 @@ def run(name: str, fe_rounds: int, seed: int) -> dict[str, Any]:
             "fe_rounds": len(report.get("fe_rounds", []))}
 
 
+DESIGNED = ROOT / "examples" / "designed"
+#: The device example each target's verified design becomes (issue 19).
+EXAMPLE_OF = {"gripper": "gripper", "jar_lifter": "jar_lifter",
+              "double_curvature": "double_curvature"}
+
+
+def publish(name: str) -> list[Path]:
+    """Copy an FE-verified run into ``examples/designed``: ``<name>.toml`` (the device, its
+    header saying how it was designed and verified), ``<name>.fe.json`` (the FE
+    verification: every round, model vs FE per stage) and ``<name>.fe.png``; and, for a
+    reference device, make ``examples/<example>.toml`` that design. Nothing for a run that
+    is not FE-verified."""
+    run_dir = RUNS / name
+    report_file = run_dir / "report.json"
+    if not report_file.exists():
+        return []
+    r = json.loads(report_file.read_text())
+    if not r.get("fe_verified") or not (run_dir / "device.toml").exists():
+        return []
+    DESIGNED.mkdir(parents=True, exist_ok=True)
+    rounds = r.get("fe_rounds", [])
+    lines = [f"# FE-verified design of examples/target_{name}.toml (issue 19).",
+             f"# Designed on the {r.get('model')} cell model (seed {r.get('seed')}), then "
+             f"checked in 3D FE: route {r.get('fe_route')}"
+             + (f", twisting modules by {r.get('fe_twist')}" if r.get("fe_twist") else "")
+             + f"; {len(rounds)} FE round(s). Per stage, wanted / model / FE "
+             "(benchmarks/verify_designs.py):"]
+    last = rounds[-1] if rounds else None
+    for st in (last or {}).get("stages", []):
+        w, m, f = st["wanted"], st["search_model"], st["check_model"]
+        lines.append(f"#   {st['name']}: Pc {_kpa(w['start_pressure'])} / "
+                     f"{_kpa(m['start_pressure'])} / {_kpa(f['start_pressure'])} kPa, "
+                     f"Ph {_kpa(w['end_pressure'])} / {_kpa(m['end_pressure'])} / "
+                     f"{_kpa(f['end_pressure'])} kPa, motion {_mag(st['kind'], w['magnitude'])}"
+                     f" / {_mag(st['kind'], m['magnitude'])} / {_mag(st['kind'], f['magnitude'])}")
+    body = (run_dir / "device.toml").read_text()
+    text = "\n".join(lines) + "\n" + body
+    out = [DESIGNED / f"{name}.toml", DESIGNED / f"{name}.fe.json"]
+    out[0].write_text(text)
+    keep = {k: r.get(k) for k in ("target", "model", "seed", "fe_verified", "fe_route",
+                                  "fe_twist", "fe_rounds", "fe", "tolerance")}
+    out[1].write_text(json.dumps(keep, indent=1) + "\n")
+    if (run_dir / "fe_verification.png").exists():
+        out.append(DESIGNED / f"{name}.fe.png")
+        out[-1].write_bytes((run_dir / "fe_verification.png").read_bytes())
+    if name in EXAMPLE_OF:
+        example = ROOT / "examples" / f"{EXAMPLE_OF[name]}.toml"
+        example.write_text(f"# The FE-verified design of examples/target_{name}.toml: "
+                           f"examples/designed/{name}.toml (its header has the FE table).\n"
+                           + text)
+        out.append(example)
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--targets", default="", help="comma-separated target names")
@@ -80,14 +135,19 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--table-only", action="store_true")
     ap.add_argument("--json", action="store_true")
+    ap.add_argument("--publish", action="store_true",
+                    help="copy every FE-verified design into examples/designed (and make the "
+                         "reference device examples those designs)")
     args = ap.parse_args(argv)
     names = (args.targets.split(",") if args.targets else
              sorted(p.stem.removeprefix("target_") for p in
                     (ROOT / "examples").glob("target_*.toml")))
     runs = [] if args.table_only else [run(n, args.fe_rounds, args.seed) for n in names]
     rows = [row for n in names for row in rows_of(n)]
+    published = {n: [str(p.relative_to(ROOT)) for p in publish(n)] for n in names} \
+        if args.publish else {}
     if args.json:
-        print(json.dumps({"runs": runs, "rows": rows}, indent=2))
+        print(json.dumps({"runs": runs, "rows": rows, "published": published}, indent=2))
         return 0
     for r in runs:
         print(f"{r['target']}: " + (f"exit {r['exit']}" if not r["ok"] else
@@ -95,6 +155,9 @@ def main(argv: list[str] | None = None) -> int:
               f"{'FE-verified' if r['fe_verified'] else 'NOT FE-verified'} after "
               f"{r['fe_rounds']} FE round(s) ({r['fe_route']} route), "
               f"{r['wall_time_s'] / 60:.1f} min"))
+    for n, files in published.items():
+        print(f"{n}: " + (f"published {', '.join(files)}" if files else
+                          "not FE-verified: nothing published"))
     print(f"{'target':<17} {'rnd':>3} {'stage':<9} {'Pc want/model/FE (kPa)':>24} "
           f"{'Ph want/model/FE (kPa)':>24} {'motion want/model/FE':>22} FE meets")
     for r in rows:
