@@ -89,6 +89,26 @@ def test_designed_twist_strips_fit_on_their_shaft() -> None:
     twisting_module_mesh(module, "coarse")        # no "strips do not fit" refusal
 
 
+def test_twist_tilts_stay_where_the_strip_shear_was_calibrated() -> None:
+    """With the calibrated model the designer's tilts keep to the tilts its strip shear was
+    fitted on (FE-backed; the gripper's 52.5° twister stalled in FE at 44.6 kPa); without a
+    calibrated range, the whole meshable range."""
+    from multimorph.design import SearchSpace, target_from_spec
+    from multimorph.design._space import TILT_RANGE
+    from multimorph.models import batch_model
+
+    target = target_from_spec(load_toml(EXAMPLES / "target_gripper.toml"))
+    i = next(k for k, s in enumerate(target.stages) if s.kind == "twist")
+    boxes = batch_model("calibrated-fast", fallback=False).support_boxes()
+    lo, hi = boxes["tilt"]
+    assert TILT_RANGE[0] <= lo < hi <= TILT_RANGE[1]
+    xs = np.random.default_rng(2).random((64, SearchSpace(target).dim))
+    xs[0], xs[1] = 0.0, 1.0
+    for bx, (a, b) in ((boxes, (lo, hi)), (None, TILT_RANGE)):
+        tilts = [SearchSpace(target, boxes=bx).decode(x).tilts[i] for x in xs]
+        assert min(tilts) == pytest.approx(a) and max(tilts) == pytest.approx(b)
+
+
 def _tilted_fe_response(module, p_max: float, pc: float, width: float, gamma_max: float):
     """A tilted cell's FE response: its strip shear γ(P) (tanh, steepest at ``pc``) as the FE
     records it (``extra["shear"]``, of the opposite sign to the tilt), no bend."""

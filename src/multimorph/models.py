@@ -128,7 +128,12 @@ def batch_model(name: str | None = None, *, fallback: bool = True,
             from multimorph.calibrated import load_model
 
             m = load_model()
-            return {kind: k.box for kind, k in (m.fast_kinds if fast else m.kinds).items()}
+            out: dict[str, Any] = {kind: k.box
+                                   for kind, k in (m.fast_kinds if fast else m.kinds).items()}
+            shear = m.twisting_shear or {}
+            if "tilt_range" in shear:   # tilts the strip shear factor was fitted on
+                out["tilt"] = tuple(float(t) for t in shear["tilt_range"])
+            return out
 
         calibrated.batched = True  # type: ignore[attr-defined]
         calibrated.tilted = True  # type: ignore[attr-defined]  # answers the strip shear

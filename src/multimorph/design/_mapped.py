@@ -167,7 +167,7 @@ def model_checker(model: Any, correction: Correction | None = None) -> Checker:
     (e.g. FE/model factors) applied to the model's values."""
 
     def check(target: TargetSpec, evs: Sequence[Evaluation]) -> list[Evaluation]:
-        cells = [c for e in evs for c in e.candidate.model_cells()]
+        cells = [c for e in evs for c in e.candidate.model_cells(model)]
         if not cells:
             return []
         from multimorph.design._space import trace_pmax
@@ -395,7 +395,7 @@ def polish_stages(target: TargetSpec, start: Evaluation, model: Any, *, boxes: A
                     if z[k] != x[k]:
                         probes.append(z)
             cands = [space.decode(z) for z in probes]
-            out = list(model([c.model_cells()[i] for c in cands], pmax))
+            out = list(model([c.model_cells(model)[i] for c in cands], pmax))
             trial = []
             for cand, r in zip(cands, out, strict=True):
                 resps = list(best.responses)

@@ -239,7 +239,7 @@ class DesignResult:
 def evaluate_population(space: SearchSpace, X: np.ndarray, model: Any) -> list[Evaluation]:
     """Decode and score designs ``X`` (shape (n, dim)) with one batched model call."""
     cands = [space.decode(x) for x in np.atleast_2d(X)]
-    cells = [c for cand in cands for c in cand.model_cells()]
+    cells = [c for cand in cands for c in cand.model_cells(model)]
     out = model(cells, space.model_pmax)
     stage_count = space.n_stages
     resps = [out[k * stage_count:(k + 1) * stage_count] for k in range(len(cands))]

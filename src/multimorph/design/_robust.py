@@ -165,7 +165,7 @@ def robustness(target: TargetSpec, design: Evaluation, *, n_samples: int = 64, s
                       for i, c in enumerate(cand.cells))
         cands.append(Candidate(x=cand.x, cells=cells, tilts=cand.tilts,
                                material_index=cand.material_index, twisting=cand.twisting))
-    flat = [c for cd in cands for c in cd.model_cells()]
+    flat = [c for cd in cands for c in cd.model_cells(counting)]
     out = counting(flat, target.constraints.max_pressure)
     S = len(target.stages)
     evs = [evaluate_one(target, cd, out[k * S:(k + 1) * S], fixed_cells=n_cells)

@@ -69,11 +69,14 @@ class Candidate:
     twisting: tuple[bool, ...] = ()
     """Which stages are twisting modules (their cells are tilted by ``tilts``)."""
 
-    def model_cells(self) -> tuple[CellGeometry | TiltedCell, ...]:
-        """The cells as a cell model is asked for them: a twisting stage's as its tilted
-        cell (a model that knows tilted cells answers the strip shear; the others get the
-        straight cell, :class:`~multimorph.design.CountingModel`)."""
-        return tuple(TiltedCell(c, t) if i < len(self.twisting) and self.twisting[i] else c
+    def model_cells(self, model: Any = None) -> tuple[CellGeometry | TiltedCell, ...]:
+        """The cells as ``model`` is asked for them: a twisting stage's as its tilted cell
+        when the model knows tilted cells (``model.tilted``; it answers the strip shear),
+        the straight cell otherwise (its module then takes the strip shear by the Ritz
+        rule). ``model=None``: the tilted cells."""
+        tilted = model is None or bool(getattr(model, "tilted", False))
+        return tuple(TiltedCell(c, t) if tilted and i < len(self.twisting)
+                     and self.twisting[i] else c
                      for i, (c, t) in enumerate(zip(self.cells, self.tilts, strict=True)))
 
 
@@ -94,7 +97,8 @@ class SearchSpace:
     d_range: tuple[float, float] = (4e-3, 20e-3)
     min_chamber: float = 1e-3
     boxes: Mapping[str, Any] | None = field(default=None, compare=False)
-    """Calibrated support per cell kind (``"bending"``, ``"stretching"``): decode inside it."""
+    """Calibrated support per cell kind (``"bending"``, ``"stretching"``): decode inside it;
+    ``"tilt"``: the (low, high) tilts (rad) of the calibrated strip shear."""
     correction: tuple[Mapping[str, float], ...] | None = field(default=None, compare=False)
     """Per stage, factors on the model's Pc, Ph and motion (see
     :func:`~multimorph.design.evaluate_one`); ``None``: the model as it is."""
@@ -132,6 +136,18 @@ class SearchSpace:
                        f"walls of min_wall {c.min_wall * 1e3:.4g} mm")
         return out
 
+    def tilt_range(self) -> tuple[float, float]:
+        """Tilt bounds (rad): :data:`TILT_RANGE`, narrowed to the tilts the model's strip
+        shear was calibrated on (``boxes["tilt"]``, a (low, high) pair) when it says so: a
+        twisting module is then designed where FE backs its shear (and where FE meshes and
+        converges)."""
+        got = self.boxes.get("tilt") if self.boxes else None
+        if got is None:
+            return TILT_RANGE
+        lo = max(TILT_RANGE[0], float(got[0]))
+        hi = min(TILT_RANGE[1], float(got[1]))
+        return (lo, hi) if hi > lo else TILT_RANGE
+
     def decode(self, x: np.ndarray) -> Candidate:
         """Cells of one design from its unit vector ``x`` (shape ``(dim,)``)."""
         x = np.clip(np.asarray(x, float), 0.0, 1.0)
@@ -141,6 +157,7 @@ class SearchSpace:
         lo = self._lo()
         tmin, mc = c.min_wall, self.min_chamber
         cells, tilts, midx = [], [], []
+        t_lo, t_hi = self.tilt_range()
         for i, stage in enumerate(self.target.stages):
             u = x[i * N_VARS:(i + 1) * N_VARS]
             box = self.boxes.get(BOX_KIND[stage.kind]) if self.boxes else None
@@ -149,7 +166,7 @@ class SearchSpace:
                      else None)
             if boxed is not None:
                 cells.append(boxed[0])
-                tilts.append(TILT_RANGE[0] + u[9] * (TILT_RANGE[1] - TILT_RANGE[0]))
+                tilts.append(t_lo + u[9] * (t_hi - t_lo))
                 midx.append(boxed[1])
                 continue
             d_lo, d_hi = max(self.d_range[0], lo), max(self.d_range[1], lo)
@@ -170,7 +187,7 @@ class SearchSpace:
             bottom = mats[ib]
             cells.append(CellGeometry(d, w, h, ht, hb, ws, df, material=wall,
                                       bottom_material=bottom, symmetric=sym))
-            tilts.append(TILT_RANGE[0] + u[9] * (TILT_RANGE[1] - TILT_RANGE[0]))
+            tilts.append(t_lo + u[9] * (t_hi - t_lo))
             midx.append((im, ib))
         return Candidate(x=x, cells=tuple(cells), tilts=tuple(tilts),
                          material_index=tuple(midx),
