@@ -140,15 +140,30 @@ def test_anchors_become_pc_and_ph_and_leave_the_path_as_predicted(pc_a, ph_a) ->
     own = resp.characteristic
     assert own.critical == pytest.approx(1.0, rel=0.01)
     ch, info = anchored_characteristic(resp, pc_a, ph_a)
-    assert ch.critical == pc_a
-    # crossing anchors: Ph keeps the path's own Ph/Pc above the anchored Pc
-    ratio = own.hardening / own.critical if ph_a < pc_a else ph_a / pc_a
-    assert ch.hardening == pytest.approx(pc_a * ratio)
+    if ph_a < pc_a:
+        # crossing anchors: projected onto Pc <= Ph, both at their (equal-weight) log mean
+        assert ch.critical == pytest.approx(math.sqrt(pc_a * ph_a))
+        assert ch.hardening == pytest.approx(ch.critical) and info["crossed"]
+    else:
+        assert ch.critical == pc_a and ch.hardening == ph_a
     assert info["used"] == ["critical", "hardening"]
     assert info["path_critical_pressure"] == own.critical
-    k_at = np.interp(pc_a, resp.loading.pressure, resp.loading.curvature)
+    k_at = np.interp(ch.critical, resp.loading.pressure, resp.loading.curvature)
     assert ch.curvature_at["critical"] == pytest.approx(k_at)
     assert ch.critical_kind == own.critical_kind
+
+
+def test_crossing_anchors_meet_at_their_precision_weighted_mean() -> None:
+    """The better-known anchor (smaller predictive std of log P) moves less: the pair is
+    the most likely one with Pc <= Ph under the GPs' Gaussian errors."""
+    from multimorph.calibrated._anchor import anchored_characteristic
+
+    resp = _ballooning_response(1.0, 1.25)
+    ch, _ = anchored_characteristic(resp, 1.2, 1.1, (0.05, 0.15))
+    want = math.exp((math.log(1.2) / 0.05**2 + math.log(1.1) / 0.15**2)
+                    / (1 / 0.05**2 + 1 / 0.15**2))
+    assert ch.critical == pytest.approx(want) == pytest.approx(ch.hardening)
+    assert 1.1 < want < 1.2 and want - 1.1 > 1.2 - want
 
 
 def test_an_anchor_beyond_the_path_or_far_from_its_reading_is_not_used() -> None:

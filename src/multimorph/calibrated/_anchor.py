@@ -53,10 +53,16 @@ def _usable(anchor: float | None, own: float | None, top: float) -> bool:
 
 
 def anchored_characteristic(resp: Response, pc: float | None, ph: float | None,
+                            std: tuple[float, float] | None = None,
                             ) -> tuple[CharacteristicPressures, dict[str, Any]]:
     """The response's characteristic pressures with Pc and Ph replaced by the anchors
     ``pc``, ``ph`` (Pa; ``None``: no anchor) where the loading curve reaches them, and a
-    record of what was done (JSON-able: the path's own readings and the anchors)."""
+    record of what was done (JSON-able: the path's own readings and the anchors).
+
+    Anchors that cross (``ph < pc``: a narrow knee, both within their scatter) are
+    projected onto Pc ≤ Ph: both take the precision-weighted mean of their logs (weights
+    1/σ² from ``std``, the anchors' predictive std of log P; equal without it) — the most
+    likely pair that satisfies the order under the GPs' Gaussian errors."""
     ch = resp.characteristic
     P, k = _signal(resp)
     top = float(P[-1]) if P.size else 0.0
@@ -67,19 +73,24 @@ def anchored_characteristic(resp: Response, pc: float | None, ph: float | None,
     crit, hard = ch.critical, ch.hardening
     # a path whose own reading finds no activation below its end, but that reaches the
     # anchor, is taken at the anchor too: the reading failed, not the activation
-    if _usable(pc, ch.critical, top):
+    use_pc = _usable(pc, ch.critical, top)
+    if use_pc:
         assert pc is not None
         crit = pc
         info["used"].append("critical")
     if crit is not None and _usable(ph, ch.hardening, top):
         assert ph is not None
         hard = ph
-        if hard < crit:
-            # the two anchors cross (both within their scatter of a narrow knee): Ph
-            # keeps the path's own Ph/Pc above the reported Pc
-            ratio = (ch.hardening / ch.critical if ch.hardening and ch.critical
-                     and ch.hardening > ch.critical else 1.0)
-            hard = min(crit * ratio, top)
+        if hard < crit and use_pc:
+            # the two anchors cross: both at their precision-weighted log mean
+            w = (1.0, 1.0)
+            if std is not None and all(math.isfinite(v) and v > 0 for v in std):
+                w = (1.0 / std[0] ** 2, 1.0 / std[1] ** 2)
+            crit = hard = math.exp((w[0] * math.log(crit) + w[1] * math.log(hard))
+                                   / (w[0] + w[1]))
+            info["crossed"] = True
+        elif hard < crit:
+            hard = crit
         info["used"].append("hardening")
     elif hard is not None and crit is not None and hard < crit:
         hard = crit

@@ -327,7 +327,9 @@ class CalibratedModel:
         if pred.anchors is not None:
             pc_a, ph_a = (math.exp(v) * c.mu if math.isfinite(v) else None
                           for v in pred.anchors[r])
-            char, anchors = anchored_characteristic(resp, pc_a, ph_a)
+            sd = (None if pred.anchor_std is None
+                  else (float(pred.anchor_std[r, 0]), float(pred.anchor_std[r, 1])))
+            char, anchors = anchored_characteristic(resp, pc_a, ph_a, sd)
             resp = replace(resp, characteristic=char)
         ch = resp.characteristic
         tt = path.extra["log_volume_ratio"]
