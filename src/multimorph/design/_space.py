@@ -11,7 +11,8 @@ Each stage owns :data:`N_VARS` coordinates in [0, 1] (unused ones are ignored)::
     6 df   end walls             min_wall … half the length left over
     7 wall material              discrete: index into the allowed materials
     8 bottom material (bending)  discrete
-    9 tilt (twisting)            10° … 79° (FE meshes tilts below 80°)
+    9 tilt (twisting)            10° … 79° (FE meshes tilts below 80°); with a calibrated
+                                 strip shear, the tilts it was fitted on (11° … 59°)
 
 Every decoded cell is valid by construction (walls ≥ min_wall, chambers ≥ ``min_chamber``).
 
