@@ -91,8 +91,8 @@ def test_designed_twist_strips_fit_on_their_shaft() -> None:
 
 def test_twist_tilts_stay_where_the_strip_shear_was_calibrated() -> None:
     """With the calibrated model the designer's tilts keep to the tilts its strip shear was
-    fitted on (FE-backed; the gripper's 52.5° twister stalled in FE at 44.6 kPa); without a
-    calibrated range, the whole meshable range."""
+    fitted on (its FE data: a factor held at its edge beyond them is an extrapolation);
+    without a calibrated range, the whole meshable range."""
     from multimorph.design import SearchSpace, target_from_spec
     from multimorph.design._space import TILT_RANGE
     from multimorph.models import batch_model

@@ -140,8 +140,7 @@ class SearchSpace:
     def tilt_range(self) -> tuple[float, float]:
         """Tilt bounds (rad): :data:`TILT_RANGE`, narrowed to the tilts the model's strip
         shear was calibrated on (``boxes["tilt"]``, a (low, high) pair) when it says so: a
-        twisting module is then designed where FE backs its shear (and where FE meshes and
-        converges)."""
+        twisting module is then designed where FE data back its shear factor."""
         got = self.boxes.get("tilt") if self.boxes else None
         if got is None:
             return TILT_RANGE
