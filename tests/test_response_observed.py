@@ -167,10 +167,79 @@ def test_a_shallow_fold_on_the_plateau_is_not_the_activation():
     assert c.critical == pytest.approx(pc, abs=0.01 * width)
     assert c.hardening == pytest.approx(pc + np.arctanh(1 / np.sqrt(3)) * width,
                                         abs=0.02 * width)
-    # the same fold with a large jump is a snap-through: then it is the activation
+    # the same fold with a large jump is a snap-through; it comes after a ballooning that
+    # has run and hardened, so it is a second event and Pc stays the first activation
     big = _path(np.concatenate([P, fold_P]), np.concatenate([k, fold_k + 2.0 * s]),
                 stable=np.concatenate([np.ones(P.size, bool), np.cos(np.pi * s) <= 0]))
-    assert characteristic_pressures(big).critical_kind == "limit_point"
+    c_big = characteristic_pressures(big)
+    assert c_big.critical_kind == "max_slope"
+    assert c_big.critical == pytest.approx(pc, abs=0.01 * width)
+    # without the ballooning before it, the same snap-through is the activation
+    lin = _path(np.concatenate([P, fold_P]), np.concatenate([1e-3 * P / pc, 0.02 + 2.0 * s]),
+                stable=np.concatenate([np.ones(P.size, bool), np.cos(np.pi * s) <= 0]))
+    assert characteristic_pressures(lin).critical_kind == "limit_point"
+
+
+def test_the_knee_is_read_from_the_slope_not_from_a_ripple_on_the_plateau():
+    # the sigmoid with a small ripple on its plateau (a 3D FE curve's wall modes): the ripple
+    # has |d²κ/dP²| = 0.003 (8π)² / w² ≈ 1.9 / w², more than the knee's 0.77 / w², so the
+    # most negative second derivative would sit on the ripple; the slope falls to 2/3 of its
+    # value at Pc exactly at the knee, atanh(1/√3) w above Pc, untouched by the ripple
+    # (slope 0.08 / w, from 2 w above Pc on)
+    pc, width = 40e3, 8e3
+    P = np.linspace(0.0, pc + 6 * width, 1200)
+    ripple = np.where(P > pc + 2 * width,
+                      0.003 * np.sin(8 * np.pi * (P - pc - 2 * width) / width), 0.0)
+    k = np.tanh((P - pc) / width) + 1.0 + ripple
+    c = characteristic_pressures(_path(P, k))
+    assert c.critical == pytest.approx(pc, abs=0.01 * width)
+    assert c.hardening == pytest.approx(pc + np.arctanh(1 / np.sqrt(3)) * width,
+                                        abs=0.02 * width)
+
+
+def _ballooning_then_second_steepening(pc: float, width: float, p2: float,
+                                       ) -> tuple[np.ndarray, np.ndarray]:
+    """κ(P): a ballooning sigmoid at ``pc`` that hardens, then a steeper rise at ``p2``
+    (a second instability at large bend, as near the end of 3D FE cells' traced paths)."""
+    P = np.linspace(0.0, p2 + 0.2 * width, 600)
+    k = (np.tanh((P - pc) / width) + 1.0 + 1e-3 * P / pc
+         + 2.0 * (np.tanh((P - p2) / (0.25 * width)) + 1.0))
+    return P, k
+
+
+def test_the_first_ballooning_is_the_activation_not_a_later_steeper_rise():
+    # the slope at p2 (8/w) is four times the ballooning's (1/w) and still rising where the
+    # path ends; the activation and its knee are the first sigmoid's
+    pc, width = 40e3, 8e3
+    P, k = _ballooning_then_second_steepening(pc, width, pc + 7 * width)
+    c = characteristic_pressures(_path(P, k))
+    assert c.critical_kind == "max_slope"
+    assert c.critical == pytest.approx(pc, abs=0.01 * width)
+    assert c.hardening == pytest.approx(pc + np.arctanh(1 / np.sqrt(3)) * width,
+                                        abs=0.02 * width)
+
+
+def test_a_fold_at_the_end_of_the_trace_after_a_ballooning_is_not_the_activation():
+    # the sigmoid, then the path folds back (pressure falls, nothing traced to land on: a
+    # runaway, as where a 3D FE trace ends in a secondary instability at large bend)
+    pc, width = 40e3, 8e3
+    P = np.linspace(0.0, pc + 5 * width, 300)
+    k = np.tanh((P - pc) / width) + 1.0 + 1e-3 * P / pc
+    s = np.linspace(0.0, 1.0, 31)[1:]
+    back_P = P[-1] - 0.1 * P[-1] * s ** 2
+    back_k = k[-1] + 0.5 * s
+    path = _path(np.concatenate([P, back_P]), np.concatenate([k, back_k]),
+                 stable=np.concatenate([np.ones(P.size, bool), np.zeros(s.size, bool)]))
+    c = characteristic_pressures(path)
+    assert c.critical_kind == "max_slope"
+    assert c.critical == pytest.approx(pc, abs=0.01 * width)
+    # the bare fold, without the ballooning before it, is the activation (a runaway)
+    bare = _path(np.concatenate([P, back_P]),
+                 np.concatenate([1e-3 * P / pc, 0.04 + back_k - k[-1]]),
+                 stable=np.concatenate([np.ones(P.size, bool), np.zeros(s.size, bool)]))
+    cb = characteristic_pressures(bare)
+    assert cb.critical_kind == "limit_point"
+    assert cb.critical == pytest.approx(P[-1], rel=1e-3)
 
 
 def test_a_cell_that_bends_the_other_way_activates_at_the_same_pressures():

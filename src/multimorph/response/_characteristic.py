@@ -2,7 +2,16 @@
 
 Definitions (physics-notes §6; the same for every backend):
 
-* **Pc, critical pressure.** If the path has a limit point (the first local maximum of the
+* **Pc, critical pressure.** The *first* activation along the loading curve. If the curve
+  shows a completed inflection before anything else — a maximum of dκ/dP, well above the
+  initial slope, after which the slope falls by at least :data:`INFLECTION_PROMINENCE` of
+  it before it rises again — Pc is that inflection (``"max_slope"``), even when a fold or
+  a steeper rise follows later: on 3D FE cells a second instability at large bend (the
+  curve steepens again near the end of the traced range, or folds there with nothing
+  traced to land on) comes after a ballooning that has already run and hardened, and is
+  not the activation (without this rule, 22 of the 373 bending cells of the FE reference
+  data set read such a later event as their Pc, up to 4.8 × their ballooning pressure).
+  Otherwise, if the path has a limit point (the first local maximum of the
   pressure along the path, after which the pressure falls) whose snap matters, Pc is that
   pressure (``critical_kind = "limit_point"``). A fold matters when the jump it causes under
   pressure control moves κ by at least :data:`SNAP_FRACTION` of the path's κ range, or when
@@ -16,11 +25,14 @@ Definitions (physics-notes §6; the same for every backend):
   means the activation lies beyond the traced range: Pc is ``None`` ("not reached"), never
   the last pressure traced.
   Both are refined by a parabola through the three points around the discrete extremum.
-* **Ph, hardening pressure.** The strain-hardening knee after Pc: the pressure of the most
-  negative d²κ/dP² on the loading curve above Pc (after a snap that matters: on the branch
-  it landed on),
-  where the steep rise turns into the plateau fastest. ``None`` when the curve has no
-  interior minimum of d²κ/dP² below zero after Pc (no hardening reached before the end).
+* **Ph, hardening pressure.** The strain-hardening knee after Pc, where the steep rise turns
+  into the plateau. After a max-slope Pc: the first pressure at which dκ/dP has fallen to
+  :data:`KNEE_SLOPE_FRACTION` (2/3) of its value at Pc — on the sigmoid
+  κ ∝ tanh((P − Pc)/w) exactly the point of most negative d²κ/dP², and on 3D FE curves the
+  same knee read from the first derivative (the minimum of the second derivative wanders
+  along a gently curving plateau: 20–30 % on the 24-design grid). After a snap that
+  matters: the most negative d²κ/dP² on the branch it landed on. ``None`` when the curve
+  does not get there before its end.
 * **Failure pressure.** The first pressure on the loading curve at which the largest
   principal stretch reaches the material's break stretch (linear interpolation); ``None``
   without a break stretch or when not reached.
@@ -49,8 +61,10 @@ from multimorph.errors import SpecError
 from multimorph.response._observed import observed_curves
 from multimorph.response._types import CharacteristicPressures, EquilibriumPath
 
-__all__ = ["SIGNALS", "SLOPE_DROP", "SNAP_FRACTION", "characteristic_pressures",
-           "critical_pressure", "hardening_pressure", "motion_sense"]
+__all__ = ["INFLECTION_PROMINENCE", "INFLECTION_RISE", "INFLECTION_SHARE",
+           "KNEE_SLOPE_FRACTION", "PRESSURE_RESOLUTION", "SIGNALS", "SLOPE_DROP",
+           "SNAP_FRACTION", "characteristic_pressures", "critical_pressure",
+           "hardening_pressure", "motion_sense"]
 
 #: Path quantities the characteristic pressures can be read on.
 SIGNALS = ("curvature", "axial_stretch", "twist_rate")
@@ -63,6 +77,31 @@ SNAP_FRACTION = 0.05
 #: count as reached within the traced range (smaller falls are a slope still levelling off,
 #: or noise, at the end of the path).
 SLOPE_DROP = 0.05
+
+#: Pressure steps smaller than this fraction of a loading curve's largest pressure are not
+#: resolved when slopes are read (see :func:`_monotone`).
+PRESSURE_RESOLUTION = 1e-3
+
+#: Ph after a max-slope Pc: where dκ/dP has fallen to this fraction of its value at Pc.
+#: On the canonical sigmoid κ ∝ tanh((P − Pc)/w) it is exactly the knee of most negative
+#: d²κ/dP² (sech² = 2/3 at atanh(1/√3)); on 3D FE curves it reads the same knee from the
+#: first derivative, where the second derivative's minimum wanders along a gently curving
+#: plateau (tens of per cent on the 24-design grid).
+KNEE_SLOPE_FRACTION = 2.0 / 3.0
+
+#: Least fall of dκ/dP after a local maximum, as a fraction of it, before the slope rises
+#: above it again, for that maximum to be a completed activation that precedes a later
+#: fold or steepening (see the module docstring; 3D FE curves wiggle by a few per cent).
+INFLECTION_PROMINENCE = 0.25
+
+#: Least ratio of such a maximum to the slope at the first loaded point (the linear
+#: response): below it a bump is not a ballooning.
+INFLECTION_RISE = 1.5
+
+#: Least share of the loading curve's κ range that such an activation must have moved by
+#: its flattest point (a bump of the first loaded points is not the ballooning: on 3D FE
+#: cells the first steps can bend a cell by a few per cent of its range at a few kPa).
+INFLECTION_SHARE = 0.25
 
 
 def _vertex(x: np.ndarray, y: np.ndarray, i: int) -> tuple[float, float]:
@@ -86,8 +125,23 @@ def _vertex(x: np.ndarray, y: np.ndarray, i: int) -> tuple[float, float]:
 
 
 def _monotone(P: np.ndarray, k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    keep = np.concatenate([[True], np.diff(P) > 1e-12 * max(1.0, float(np.max(np.abs(P))))])
-    return P[keep], k[keep]
+    """The points of a loading curve (pressures non-decreasing) at least
+    :data:`PRESSURE_RESOLUTION` of the largest pressure above the last point kept: slopes
+    and their derivatives are not read across pressure steps a path tracer makes only
+    to resolve a fold or a snap (3D FE paths end in clusters of points a few Pa apart,
+    where dκ/dP of neighbours spikes by 10³)."""
+    P = np.asarray(P, float)
+    if P.size < 2:
+        return P, np.asarray(k, float)
+    tol = PRESSURE_RESOLUTION * max(1.0, float(np.max(np.abs(P))))
+    keep = [0]
+    while True:
+        nxt = int(np.searchsorted(P, P[keep[-1]] + tol, side="right"))
+        if nxt >= P.size:
+            break
+        keep.append(nxt)
+    idx = np.asarray(keep)
+    return P[idx], np.asarray(k, float)[idx]
 
 
 def _kappa_range(k: np.ndarray) -> float:
@@ -116,25 +170,63 @@ def _limit_point(path: EquilibriumPath) -> int | None:
     return None
 
 
+def _first_inflection(k: np.ndarray, slope: np.ndarray) -> int | None:
+    """Index of the first completed activation of a loading curve κ with slope dκ/dP: an
+    interior local maximum of the slope at least :data:`INFLECTION_RISE` × the first slope,
+    followed by a fall of :data:`INFLECTION_PROMINENCE` of it — with κ still rising there: a
+    knee, not a turn — before the slope exceeds it again, and whose rise up to the flattest
+    point before that moves κ by at least :data:`INFLECTION_SHARE` of the curve's range
+    (None: none)."""
+    base = max(float(slope[0]), 0.0)
+    span = _kappa_range(k)
+    for j in range(1, len(slope) - 1):
+        sj = slope[j]
+        if not (sj > 0 and sj >= slope[j - 1] and sj >= slope[j + 1]
+                and sj >= INFLECTION_RISE * base):
+            continue
+        after = slope[j + 1:]
+        higher = np.flatnonzero(after > sj)
+        seg = after[:higher[0]] if higher.size else after
+        low = np.flatnonzero(seg <= (1.0 - INFLECTION_PROMINENCE) * sj)
+        if not low.size or not seg[low[0]] > 0:
+            # no fall, or the signal turns back instead of levelling off (a swing of a
+            # coarsely traced path, not a knee)
+            continue
+        if k[j + 1 + int(np.argmin(seg))] - k[0] >= INFLECTION_SHARE * span:
+            return j
+    return None
+
+
 def critical_pressure(path: EquilibriumPath, loading: EquilibriumPath | None = None,
                       ) -> tuple[float | None, str | None, float | None]:
     """Pc, its kind and κ there (see the module docstring for the definition)."""
     if len(path) < 3:
         return None, None, None
     i = _limit_point(path)
+    loading = loading if loading is not None else observed_curves(path)[0]
+    P, k = _monotone(loading.pressure, loading.curvature)
     if i is not None:
+        # the loading curve up to the fold: a completed activation there comes first
+        before = P <= path.pressure[i]
+        j = None
+        if before.sum() >= 4:
+            slope = np.gradient(k[before], P[before])
+            j = _first_inflection(k[before], slope)
+        if j is not None:
+            pc, _ = _vertex(P[before], slope, j)
+            return pc, "max_slope", float(np.interp(pc, P, k))
         s = np.arange(len(path), dtype=float)
         sv, pc = _vertex(s, path.pressure, i)
         kc = float(np.interp(sv, s, path.curvature))
         return pc, "limit_point", kc
-    loading = loading if loading is not None else observed_curves(path)[0]
-    P, k = _monotone(loading.pressure, loading.curvature)
     if len(P) < 3:
         return None, None, None
     slope = np.gradient(k, P)
-    j = int(np.argmax(slope))
-    if not _inflection_reached(slope, j):
-        return None, None, None
+    j = _first_inflection(k, slope)
+    if j is None:
+        j = int(np.argmax(slope))
+        if not _inflection_reached(slope, j):
+            return None, None, None
     pc, _ = _vertex(P, slope, j)
     return pc, "max_slope", float(np.interp(pc, P, k))
 
@@ -149,7 +241,7 @@ def _inflection_reached(slope: np.ndarray, j: int) -> bool:
 
 def hardening_pressure(loading: EquilibriumPath, pc: float | None,
                        ) -> tuple[float | None, float | None]:
-    """Ph and κ there: the knee (most negative d²κ/dP²) of the loading curve above Pc."""
+    """Ph and κ there: the knee of the loading curve above Pc (see the module docstring)."""
     if pc is None:
         return None, None
     start = 0
@@ -167,6 +259,8 @@ def hardening_pressure(loading: EquilibriumPath, pc: float | None,
     above = np.flatnonzero(P >= pc)
     if above.size == 0:
         return None, None
+    if start == 0:
+        return _knee_by_slope(P, k, slope, pc, int(above[0]))
     j = int(above[np.argmin(curv[above])])
     if curv[j] >= 0 or j >= len(P) - 2:
         return None, None
@@ -174,6 +268,26 @@ def hardening_pressure(loading: EquilibriumPath, pc: float | None,
         return float(P[0]), float(k[0])
     ph, _ = _vertex(P, curv, j)
     ph = max(ph, pc)
+    return ph, float(np.interp(ph, P, k))
+
+
+def _knee_by_slope(P: np.ndarray, k: np.ndarray, slope: np.ndarray, pc: float, a0: int,
+                   ) -> tuple[float | None, float | None]:
+    """The knee after a max-slope activation at ``pc`` (``a0`` the first point at or above
+    it): the first pressure where dκ/dP has fallen to :data:`KNEE_SLOPE_FRACTION` of its
+    value at Pc (linear interpolation; None if it does not within the curve)."""
+    s_pc = float(np.max(slope[max(a0 - 1, 0):a0 + 1]))
+    if not s_pc > 0:
+        return None, None
+    target = KNEE_SLOPE_FRACTION * s_pc
+    below = np.flatnonzero(slope[a0:] <= target)
+    if below.size == 0:
+        return None, None
+    m = a0 + int(below[0])
+    if m == 0:
+        return None, None
+    f = (slope[m - 1] - target) / (slope[m - 1] - slope[m]) if slope[m - 1] != slope[m] else 1.0
+    ph = max(float(P[m - 1] + f * (P[m] - P[m - 1])), pc)
     return ph, float(np.interp(ph, P, k))
 
 
