@@ -47,6 +47,9 @@ from multimorph.response import Response, build_response
 
 __all__ = ["GradientStep", "gradient_refine", "objective_jacobian", "residuals"]
 
+#: Smallest Marquardt scale of a variable, relative to the largest (see gradient_refine).
+MARQUARDT_FLOOR = 1e-2
+
 #: Continuous coordinates of a stage (length … end wall, tilt); materials are discrete.
 CONTINUOUS = (0, 1, 2, 3, 4, 5, 6, 9)
 
@@ -220,8 +223,11 @@ def gradient_refine(space: SearchSpace, ev: Evaluation,
             break
         Jf = J[:, free]
         A = Jf.T @ Jf
+        # Marquardt's scaling, floored: a variable the residuals barely feel (diagonal ≪ the
+        # largest) would otherwise take a step ∝ 1/its sensitivity, fill the trust radius
+        # alone and shrink every useful coordinate's step to nothing
         d = np.diag(A).copy()
-        d = np.where(d > 0, d, 1e-12 * max(float(d.max()), 1e-300))
+        d = np.maximum(d, MARQUARDT_FLOOR * max(float(d.max()), 1e-300))
         trials = []
         for mu in dampings:
             dx = np.linalg.solve(A + lam * mu * np.diag(d) * 1.0 + 1e-14 * np.eye(len(free)),
