@@ -193,9 +193,15 @@ STRIP_LENGTH_FRACTION = 0.0625
 MODULE_MAX_STEPS = 250
 
 
+#: Chamber volume ratio at which a module's FE path stops (see :func:`fe_checker`).
+MODULE_MAX_VOLUME_RATIO = 25.0
+#: The same for the whole device in one FE problem (any of its modules' chambers).
+DEVICE_MAX_VOLUME_RATIO = 60.0
+
+
 def fe_checker(folder: str | Path, *, mesh: str = "coarse",
                wall_elements: int | None = None, max_steps: int = 400,
-               max_volume_ratio: float = 25.0, dx_max: float = 0.04,
+               max_volume_ratio: float | None = None, dx_max: float = 0.04,
                route: str = "modules", twist: str = "strip",
                progress: Callable[[str], None] | None = None,
                records: list[dict[str, Any]] | None = None) -> Callable[..., list[Evaluation]]:
@@ -221,8 +227,13 @@ def fe_checker(folder: str | Path, *, mesh: str = "coarse",
         ``modules`` route take the data set's mesh (:data:`MODULE_WALL_ELEMENTS`, or
         ``wall_elements``, and :data:`MODULE_LENGTH_FRACTION`) and at most
         :data:`MODULE_MAX_STEPS` points. The path stops where a module's
-        chambers reach 25 × their volume (as the FE data set's cells: well past every
-        hardening knee, before the slow creep of a fully ballooned chamber). The arc-length
+        chambers reach ``max_volume_ratio`` × their volume; by default 25 on the
+        ``modules`` route (as the FE data set's cells: well past every hardening knee,
+        before the slow creep of a fully ballooned chamber) and
+        :data:`DEVICE_MAX_VOLUME_RATIO` on the ``device`` route, where the first module
+        to activate passes 25 long before a later one hardens (a small two-stage device:
+        its seal at 25 × at 23.4 kPa, its stalk activated at 21.5 kPa and not yet at its
+        knee). The arc-length
         step may move a node 0.04 d (the default 0.01 d took 145 points, 20 min, for the
         jar lifter's seal to reach its limit point at 51k DOF).
     progress : callable, optional
@@ -247,8 +258,10 @@ def fe_checker(folder: str | Path, *, mesh: str = "coarse",
 
         ev = evs[0]
         pmax = target.constraints.max_pressure
+        ratio = max_volume_ratio if max_volume_ratio is not None else (
+            DEVICE_MAX_VOLUME_RATIO if route == "device" else MODULE_MAX_VOLUME_RATIO)
         kw: dict[str, Any] = {"mesh": mesh, "p_max": pmax, "max_steps": max_steps,
-                              "max_volume_ratio": max_volume_ratio, "dx_max": dx_max}
+                              "max_volume_ratio": ratio, "dx_max": dx_max}
         # (the modules route's measure: since stop 27 a free tip's bend is read without the
         # edge under its end wall; earlier results are not re-used)
         key = _fingerprint(ev, {**kw, "wall_elements": wall_elements,
