@@ -152,3 +152,48 @@ def test_the_strip_twist_route_twists_the_module_by_its_shaft_kinematics(sign) -
     assert TWIST_ROUTES[0] == "strip"
     with pytest.raises(MultimorphError, match="--fe-twist"):
         fe_checker(Path("."), twist="spiral")
+
+
+def test_a_long_module_is_checked_by_a_few_of_its_cells(tmp_path, monkeypatch) -> None:
+    """The ``modules`` route inflates a bending module of more than MODULE_FE_MAX_CELLS
+    cells as that many of its cells with the module's end, and reads the motion per length
+    on the module's own length (FE is replaced by a recorder: what is asked of it)."""
+    import multimorph.fe as fe
+    from multimorph.design import SearchSpace, build_device, evaluate_one, target_from_spec
+    from multimorph.design._fe_check import MODULE_FE_MAX_CELLS
+    from test_design_helpers import STANDIN
+
+    target = target_from_spec(load_toml(EXAMPLES / "target_jar_lifter.toml"))
+    space = SearchSpace(target)
+    cand = space.decode(np.full(space.dim, 0.5))
+    n = [1, MODULE_FE_MAX_CELLS + 4]                     # sealer 1 cell, lifter 7 cells
+    resps = STANDIN(list(cand.cells), target.constraints.max_pressure)
+    ev = evaluate_one(target, cand, resps, fixed_cells=n)
+    assert build_device(target, cand, n).module("lifter").n_cells == n[1]
+    asked = {}
+
+    class Result:
+        def __init__(self, response):
+            self.response = response
+            self.stats = {"points": 3, "nfree": 1}
+
+    def fake(cell, settings, n_cells=1, progress=None, checkpoint=None, end="plate", **kw):
+        asked[cell.symmetric] = (n_cells, end)
+        return Result(_bending(target.constraints.max_pressure, 100e3, 5e3, 40.0,
+                               n_cells * cell.length))
+
+    monkeypatch.setattr(fe, "simulate_cell", fake)
+    out = fe_checker(tmp_path)(target, [ev])[0]
+    assert asked[False] == (MODULE_FE_MAX_CELLS, "free")   # the lifter: 3 of its 7 cells
+    assert asked[True] == (1, "plate")                      # the sealer: all of it
+    lifter = next(s for s in out.stages if s.name == "lifter")
+    cell = cand.cells[1]
+    # the motion: the recorded curvature at Ph over the whole module's length
+    r = _bending(target.constraints.max_pressure, 100e3, 5e3, 40.0, 1.0)
+    k_ph = float(np.interp(lifter.end, r.loading.pressure, r.loading.curvature))
+    assert lifter.magnitude == pytest.approx(k_ph * n[1] * cell.length, rel=1e-6)
+    saved = next((tmp_path).glob("*.modules/lifter-*.json"))
+    import json
+
+    stats = json.loads(saved.read_text())["stats"]
+    assert stats["fe_cells"] == MODULE_FE_MAX_CELLS and stats["module_cells"] == n[1]

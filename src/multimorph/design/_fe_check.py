@@ -54,6 +54,7 @@ import numpy as np
 from multimorph.design._evaluate import Evaluation, Measured, score_measured
 from multimorph.design._target import TargetSpec
 from multimorph.errors import MultimorphError
+from multimorph.response import DEFINITIONS_VERSION
 
 __all__ = ["FE_ROUTES", "TWIST_ROUTES", "as_written", "fe_checker", "fe_measure",
            "module_end", "module_measure", "strip_twist_response"]
@@ -193,6 +194,11 @@ STRIP_LENGTH_FRACTION = 0.0625
 MODULE_MAX_STEPS = 250
 
 
+#: The ``modules`` route inflates a bending or stretching module of more cells by this
+#: many of them (see :func:`fe_checker`): the jar lifter's 25-cell lifter (156k free DOF)
+#: had not finished its ballooning after 73 min.
+MODULE_FE_MAX_CELLS = 3
+
 #: Chamber volume ratio at which a module's FE path stops (see :func:`fe_checker`).
 MODULE_MAX_VOLUME_RATIO = 25.0
 #: The same for the whole device in one FE problem (any of its modules' chambers).
@@ -226,7 +232,10 @@ def fe_checker(folder: str | Path, *, mesh: str = "coarse",
         (:class:`multimorph.fe.FESettings`); bending and stretching modules on the
         ``modules`` route take the data set's mesh (:data:`MODULE_WALL_ELEMENTS`, or
         ``wall_elements``, and :data:`MODULE_LENGTH_FRACTION`) and at most
-        :data:`MODULE_MAX_STEPS` points. The path stops where a module's
+        :data:`MODULE_MAX_STEPS` points; one of more than :data:`MODULE_FE_MAX_CELLS` cells
+        is inflated as that many of its cells with the module's end (its motion per
+        length is the module's; the run's statistics say ``fe_cells`` of
+        ``module_cells``). The path stops where a module's
         chambers reach ``max_volume_ratio`` × their volume; by default 25 on the
         ``modules`` route (as the FE data set's cells: well past every hardening knee,
         before the slow creep of a fully ballooned chamber) and
@@ -265,6 +274,7 @@ def fe_checker(folder: str | Path, *, mesh: str = "coarse",
         # (the modules route's measure: since stop 27 a free tip's bend is read without the
         # edge under its end wall; earlier results are not re-used)
         key = _fingerprint(ev, {**kw, "wall_elements": wall_elements,
+                                "definitions": DEFINITIONS_VERSION,
                                 **({"route": route, "tip": "inner-edge",
                                     **({"twist": twist} if twist != "shaft" else {})}
                                    if route != "device" else {})})
@@ -404,8 +414,13 @@ def _modules_route(target: TargetSpec, ev: Evaluation, kw: dict[str, Any], folde
                                      "mesh": MeshDensity(
                                          wall_elements=wall_elements or MODULE_WALL_ELEMENTS,
                                          length_fraction=MODULE_LENGTH_FRACTION)})
-            res = simulate_cell(module.cell, settings, n_cells=module.n_cells, progress=tick,
-                                checkpoint=ckpt, end=end)
+            # a long module by a few of its cells: cells in series bend and stretch alike
+            # (the 4-cell bending module's FE Pc is within 0.3 % of one cell's as inside a
+            # module), its end held as the whole module's; the motion per length is the
+            # module's, read on the module's length
+            res = simulate_cell(module.cell, settings,
+                                n_cells=min(module.n_cells, MODULE_FE_MAX_CELLS),
+                                progress=tick, checkpoint=ckpt, end=end)
             response, length = res.response, module.length
         pc, ph, mag, peak = module_measure(stage.kind, response, length, pmax)
         top = float(np.max(response.loading.pressure))
@@ -414,6 +429,10 @@ def _modules_route(target: TargetSpec, ev: Evaluation, kw: dict[str, Any], folde
               if isinstance(v, (int, float, str, bool)) or v is None}
         st["wall_time_s"] = time.perf_counter() - t0
         st["end"] = end
+        st["fe_cells"] = (min(module.n_cells, MODULE_FE_MAX_CELLS)
+                          if module.kind != "twisting" else 1 if twist == "strip" else
+                          module.n_cells)
+        st["module_cells"] = module.n_cells
         _save(part, {"format": FE_CHECK_FORMAT, "key": key, "module": stage.name,
                      "row": row, "stats": st})
         ckpt.clear()

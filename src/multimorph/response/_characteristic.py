@@ -61,10 +61,15 @@ from multimorph.errors import SpecError
 from multimorph.response._observed import observed_curves
 from multimorph.response._types import CharacteristicPressures, EquilibriumPath
 
-__all__ = ["INFLECTION_PROMINENCE", "INFLECTION_RISE", "INFLECTION_SHARE",
+__all__ = ["DEFINITIONS_VERSION", "INFLECTION_PROMINENCE", "INFLECTION_RISE", "INFLECTION_SHARE",
            "KNEE_SLOPE_FRACTION", "PRESSURE_RESOLUTION", "SIGNALS", "SLOPE_DROP",
            "SNAP_FRACTION", "characteristic_pressures", "critical_pressure",
            "hardening_pressure", "motion_sense"]
+
+#: Version of these definitions: raised whenever a change moves Pc or Ph read on the same
+#: path, so results cached with derived pressures (FE checks of designs) are not re-used
+#: across it. 2: the first activation and the knee from the slope (stop 30).
+DEFINITIONS_VERSION = 2
 
 #: Path quantities the characteristic pressures can be read on.
 SIGNALS = ("curvature", "axial_stretch", "twist_rate")
