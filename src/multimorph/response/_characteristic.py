@@ -139,14 +139,18 @@ def _monotone(P: np.ndarray, k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     if P.size < 2:
         return P, np.asarray(k, float)
     tol = PRESSURE_RESOLUTION * max(1.0, float(np.max(np.abs(P))))
-    keep = [0]
-    while True:
-        nxt = int(np.searchsorted(P, P[keep[-1]] + tol, side="right"))
-        if nxt >= P.size:
-            break
-        keep.append(nxt)
-    idx = np.asarray(keep)
-    return P[idx], np.asarray(k, float)[idx]
+    # a point more than tol above its predecessor is kept whatever came before; only the
+    # points of clusters are decided one by one, against the last point kept
+    keep = np.concatenate([[True], np.diff(P) > tol])
+    if not keep.all():
+        safe = np.maximum.accumulate(np.where(keep, np.arange(P.size), 0))
+        last = -1
+        for i in np.flatnonzero(~keep):
+            ref = max(int(safe[i]), last)
+            if P[i] - P[ref] > tol:
+                keep[i] = True
+                last = int(i)
+    return P[keep], np.asarray(k, float)[keep]
 
 
 def _kappa_range(k: np.ndarray) -> float:
@@ -182,13 +186,15 @@ def _first_inflection(k: np.ndarray, slope: np.ndarray) -> int | None:
     knee, not a turn — before the slope exceeds it again, and whose rise up to the flattest
     point before that moves κ by at least :data:`INFLECTION_SHARE` of the curve's range
     (None: none)."""
+    if len(slope) < 3:
+        return None
     base = max(float(slope[0]), 0.0)
     span = _kappa_range(k)
-    for j in range(1, len(slope) - 1):
+    mid = slope[1:-1]
+    peaks = 1 + np.flatnonzero((mid > 0) & (mid >= slope[:-2]) & (mid >= slope[2:])
+                               & (mid >= INFLECTION_RISE * base))
+    for j in peaks:
         sj = slope[j]
-        if not (sj > 0 and sj >= slope[j - 1] and sj >= slope[j + 1]
-                and sj >= INFLECTION_RISE * base):
-            continue
         after = slope[j + 1:]
         higher = np.flatnonzero(after > sj)
         seg = after[:higher[0]] if higher.size else after
