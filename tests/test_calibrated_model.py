@@ -70,17 +70,18 @@ def test_a_cell_outside_the_box_is_answered_by_ritz_and_says_which_groups() -> N
     assert both[1].meta["model"] == "ritz"
 
 
-def test_the_cell_command_uses_the_calibrated_model_by_default(tmp_path) -> None:
+def test_the_cell_command_uses_the_fast_calibrated_model_by_default(tmp_path) -> None:
     from multimorph.cli import app
     from multimorph.cli._app import _register
 
     _register()
-    assert DEFAULT_MODEL == "calibrated"
+    assert DEFAULT_MODEL == "calibrated-fast"
     res = CliRunner().invoke(app, ["cell", str(EXAMPLES / "cell.toml"), "--json", "--out",
                                    str(tmp_path / "o")])
     assert res.exit_code == 0, res.output
     data = json.loads(res.stdout)
-    assert data["model"] == "calibrated" and data["calibration"]["inside"] is True
+    assert data["model"] == "calibrated-fast" and data["calibration"]["inside"] is True
+    assert data["calibration"]["features"] == "emulated"
     # a pressure path that rises with the volume, up to the data set's V/V0 = 25 at most
     assert np.all(np.diff(data["volume"]) > 0)
     assert data["calibration"]["volume_ratio_end"] <= 25.0 + 1e-9

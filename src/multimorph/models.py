@@ -1,11 +1,14 @@
 """The cell models a user can choose, by name: one place for ``--model`` and ``model =``.
 
-* ``"calibrated"`` (default): the Ritz model corrected against the project's own 3D FE
-  (:mod:`multimorph.calibrated`); outside its calibrated box it answers with the Ritz
-  model and says so (``meta["calibration"]["inside"] = False``, a warning).
-* ``"calibrated-fast"``: the same correction read from emulated Ritz features (no Ritz
-  trace: about 40 × faster, less accurate where the emulator is off; docs/validation.md);
-  for searches and sweeps over thousands of designs.
+* ``"calibrated-fast"`` (default of ``cell``, ``simulate`` and the library): the Ritz model
+  corrected against the project's own 3D FE (:mod:`multimorph.calibrated`), its Ritz
+  features read from emulators (no Ritz trace, no JAX compile: ~1 ms a curve, a first call
+  in a few seconds). Its held-out errors against FE are within a point or two of
+  ``"calibrated"``'s (docs/validation.md). Outside its calibrated box it answers with the
+  Ritz model and says so (``meta["calibration"]["inside"] = False``, a warning).
+* ``"calibrated"`` (default of ``design``, which searches on the fast variant and scores its
+  best designs with this one): the same correction with the Ritz features traced exactly
+  for each cell (a Ritz trace per cell: ~60 ms a curve, ~45 s to compile on first use).
 * ``"ritz"`` (alias ``"rom"``): the reduced (Ritz energy) model of :mod:`multimorph.rom` —
   the physics backbone, about twice as stiff as FE (its Pc ≈ 2 × FE's).
 * ``"fe"``: 3D finite elements (:mod:`multimorph.fe`), one cell at a time with the data
@@ -27,12 +30,15 @@ from multimorph.errors import SpecError
 from multimorph.geometry import CellGeometry, TiltedCell
 from multimorph.response import Response
 
-__all__ = ["DEFAULT_MODEL", "MODEL_ALIASES", "MODEL_NAMES", "batch_model", "cell_model",
-           "model_name"]
+__all__ = ["DEFAULT_MODEL", "DESIGN_MODEL", "MODEL_ALIASES", "MODEL_NAMES", "batch_model",
+           "cell_model", "model_name"]
 
 MODEL_NAMES = ("calibrated", "calibrated-fast", "ritz", "fe")
 MODEL_ALIASES = {"rom": "ritz"}
-DEFAULT_MODEL = "calibrated"
+#: The default cell model (``cell``, ``simulate``, ``sweep --model`` omitted: the spec's).
+DEFAULT_MODEL = "calibrated-fast"
+#: The default model of ``design`` (search on ``calibrated-fast``, score with this one).
+DESIGN_MODEL = "calibrated"
 CellModel = Callable[[CellGeometry | TiltedCell, float], Response]
 
 

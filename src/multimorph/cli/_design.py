@@ -113,7 +113,7 @@ def design_command(
                         "corrected for the difference, see --rounds), calibrated-fast (search "
                         "and scores on emulated Ritz features: fastest, less accurate) or ritz "
                         "(alias rom: the reduced model, about twice as stiff as FE). "
-                        "Default: multimorph.models.DEFAULT_MODEL.")] = None,
+                        "Default: calibrated (multimorph.models.DESIGN_MODEL).")] = None,
     rounds: Annotated[int, typer.Option(
         "--rounds", min=0, max=20,
         help="With --model calibrated: searches again on targets corrected by the "
@@ -135,12 +135,12 @@ def design_command(
     from multimorph.design._verify import fe_available
     from multimorph.errors import MultimorphError, SpecError
     from multimorph.io import atomic_output_dir, claim_output, load_toml
-    from multimorph.models import batch_model, model_name
+    from multimorph.models import DESIGN_MODEL, batch_model, model_name
     from multimorph.units import to_si
 
     with handle_errors(as_json), ExitStack() as hold:
-        name = model_name(model, allowed=("calibrated", "calibrated-fast", "ritz"),
-                          field="--model")
+        name = model_name(model or DESIGN_MODEL, allowed=("calibrated", "calibrated-fast",
+                                                          "ritz"), field="--model")
         with in_file(target):
             spec = target_from_spec(load_toml(target))
         tol = to_si(wall_tolerance, "m", field="--wall-tolerance")

@@ -133,9 +133,10 @@ def simulate(
                                         help="GIF frames (0: no animation).")] = 24,
     as_json: Annotated[bool, typer.Option("--json", help="Print the JSON summary.")] = False,
     model: Annotated[str | None, typer.Option(
-        "--model", help="Cell model: calibrated (Ritz corrected against 3D FE), "
-                        "calibrated-fast (the same on emulated Ritz features: faster, less "
-                        "accurate), ritz (alias rom: the reduced model, about twice as stiff "
+        "--model", help="Cell model: calibrated-fast (the default: Ritz corrected "
+                        "against 3D FE, on emulated Ritz features; ~1 ms a cell), calibrated "
+                        "(the same with a Ritz trace per cell: a first call of ~45 s), ritz "
+                        "(alias rom: the reduced model, about twice as stiff "
                         "as FE) or fe (3D FE of each distinct cell, minutes each). Default: "
                         "multimorph.models.DEFAULT_MODEL.")] = None,
 ) -> None:

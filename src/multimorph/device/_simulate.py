@@ -30,11 +30,14 @@ CellModel = Callable[[CellGeometry, float], Response]
 
 def default_cell_model(cell: CellGeometry | TiltedCell, p_max: float) -> Response:
     """The default cell model, :data:`multimorph.models.DEFAULT_MODEL`: the calibrated model
-    (imported from :mod:`multimorph.calibrated` itself, not through :mod:`multimorph.models`,
-    whose FE model depends on this package)."""
+    on emulated Ritz features, "calibrated-fast" (imported from :mod:`multimorph.calibrated`
+    itself, not through :mod:`multimorph.models`, whose FE model depends on this package)."""
     from multimorph.calibrated import load_model
 
-    return load_model().response(cell, p_max)
+    r = load_model().responses([cell], p_max, fast=True)[0]
+    if isinstance(r, Exception):
+        raise r
+    return r
 
 
 default_cell_model.tilted = True  # type: ignore[attr-defined]
