@@ -71,6 +71,9 @@ class _Kind:
     fstd: np.ndarray
     #: the anchor GPs (log Pc/μ, log Ph/μ of FE) by name; empty in an older model file
     anchors: dict[str, MultiOutputGP]
+    #: log(P/μ) on the grid with a kernel of its own (``_fit.fit_pressure``); None in an
+    #: older model file (the path GP's pressure then)
+    pressure: MultiOutputGP | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -108,9 +111,11 @@ class CalibratedModel:
                           np.asarray(arrays[f"{p}box_high"]))
                 anchors = {name: MultiOutputGP.from_arrays(arrays, f"{p}anchor_{name}/")
                            for name in ANCHORS if f"{p}anchor_{name}/x" in arrays}
+                pressure = (MultiOutputGP.from_arrays(arrays, f"{p}pressure/")
+                            if f"{p}pressure/x" in arrays else None)
                 into[kind] = _Kind(kind, MultiOutputGP.from_arrays(arrays, p), box,
                                    np.asarray(arrays[f"{p}feature_mean"]),
-                                   np.asarray(arrays[f"{p}feature_std"]), anchors)
+                                   np.asarray(arrays[f"{p}feature_std"]), anchors, pressure)
         #: the tilted cells' calibrated strip-shear factor on the Ritz rule (``_shear``)
         self.twisting_shear: dict[str, Any] | None = manifest.get("twisting_shear")
         self.emulators = {fam: MultiOutputGP.from_arrays(arrays, f"emulator/{fam}/")
@@ -208,6 +213,8 @@ class CalibratedModel:
         J = len(T_GRID)
         values = mean.reshape(len(x), J, nq)
         std_log_p = rel[:, None] * k.gp.scale.reshape(J, nq)[None, :, 0]
+        if k.pressure is not None:
+            values[:, :, 0], std_log_p = k.pressure.predict(x, std=True)
         # support: the largest grid volume whose training designs include a close one
         reach = k.gp.mask.reshape(len(k.gp.x), J, nq)[:, :, 0]
         best = np.stack([np.where(reach[:, j][None, :], ks, 0.0).max(axis=1)
