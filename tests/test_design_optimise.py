@@ -148,3 +148,38 @@ def test_failed_model_ranks_below_every_traced_design():
     assert max(e.objective for e in traced) < min(e.objective for e in failed)
     assert all(e.objective >= FAILED_PENALTY and not e.meets for e in failed)
     assert all("model failed" in e.message for e in failed)
+
+
+def test_a_cell_where_the_calibrated_model_is_unsure_does_not_meet_the_target():
+    """A design is met only where the cell model's own Pc uncertainty (its ±1σ band) stays
+    within SUPPORT_SIGMA: the same stand-in responses meet with a held-out-like band (±4 %)
+    and violate ``<stage>.support`` with the band of a box corner (±13 %, the jar lifter's
+    lifter whose FE Pc was 31 % below the model's)."""
+    from multimorph.design import evaluate_one
+    from multimorph.design._evaluate import SUPPORT_SIGMA
+    from multimorph.design._optimise import explain_design
+
+    target = load("target_jar_lifter.toml")
+    space = SearchSpace(target)
+    cand = space.decode(np.full(space.dim, 0.5))
+    resps = STANDIN(list(cand.cells), target.constraints.max_pressure)
+
+    def banded(sigma):
+        out = []
+        for r in resps:
+            pc = r.characteristic.critical or 1e5
+            out.append(r.with_meta(calibration={"critical_pressure_range": [
+                pc * math.exp(-sigma), pc * math.exp(sigma)]}))
+        return out
+
+    n = [1, 4]
+    plain = evaluate_one(target, cand, resps, fixed_cells=n)
+    sure = evaluate_one(target, cand, banded(0.04), fixed_cells=n)
+    unsure = evaluate_one(target, cand, banded(0.13), fixed_cells=n)
+    assert not any(k.endswith(".support") for k in plain.violations)   # no band: no check
+    assert all(sure.violations[f"{s.name}.support"] == pytest.approx(0.04 / SUPPORT_SIGMA - 1)
+               for s in target.stages)
+    assert sure.objective == pytest.approx(plain.objective)
+    assert unsure.violations["lifter.support"] == pytest.approx(0.13 / SUPPORT_SIGMA - 1)
+    assert unsure.objective > plain.objective and not unsure.meets
+    assert any("uncertainty" in line for line in explain_design(space, unsure))

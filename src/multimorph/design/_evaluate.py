@@ -112,6 +112,23 @@ class Evaluation:
                 "message": self.message}
 
 
+#: Largest standard deviation of log Pc a calibrated model may give a designed cell: the
+#: 90th percentile of its anchors' on the held-out FE designs is 0.04–0.08 per set (largest
+#: 0.10). Beyond it the cell sits where the FE data set has few designs (a box corner) and
+#: the model extrapolates: the jar lifter's lifter designed at four box edges had 0.13 and
+#: its FE Pc was 81 kPa against the model's 117 kPa (docs/design.md).
+SUPPORT_SIGMA = 0.08
+
+
+def _log_sigma(r: Response) -> float | None:
+    """The model's standard deviation of log Pc from its ±1σ band (None without one)."""
+    band = (r.meta.get("calibration") or {}).get("critical_pressure_range") or (None, None)
+    lo, hi = band
+    if lo is None or hi is None or not (lo > 0 and hi > lo):
+        return None
+    return 0.5 * math.log(hi / lo)
+
+
 def _interp(p: np.ndarray, y: np.ndarray, at: float) -> float:
     order = np.argsort(p, kind="stable")
     return float(np.interp(at, p[order], y[order]))
@@ -179,7 +196,8 @@ def evaluate_one(target: TargetSpec, cand: Candidate, resps: Sequence[Any],
         per_module = n if stage.kind != "stretch" else 1
         at_max = _interp(p, signal, top) * per_module * f_mag if len(p) else None
         measured.append(Measured(pc, ph, mag, n, sf, peak, ch.failure, at_max,
-                                 traced_to=float(np.max(lp)) if lp.size else None))
+                                 traced_to=float(np.max(lp)) if lp.size else None,
+                                 uncertainty=_log_sigma(r)))
     return score_measured(target, cand, measured, responses=tuple(resps))
 
 
@@ -201,6 +219,9 @@ class Measured:
     """Why the model gave nothing for this stage (``None``: it did)."""
     traced_to: float | None = None
     """The highest pressure the model's path reached (Pa)."""
+    uncertainty: float | None = None
+    """The model's own standard deviation of log Pc (a calibrated model's ±1σ band;
+    ``None``: the model gives none, as the Ritz model or FE)."""
 
 
 def score_measured(target: TargetSpec, cand: Candidate, measured: Sequence[Measured], *,
@@ -255,6 +276,8 @@ def score_measured(target: TargetSpec, cand: Candidate, measured: Sequence[Measu
         if m.safety_factor is not None:
             viol[f"{stage.name}.safety_factor"] = ((con.min_safety_factor - m.safety_factor)
                                                    / con.min_safety_factor)
+        if m.uncertainty is not None:
+            viol[f"{stage.name}.support"] = (m.uncertainty - SUPPORT_SIGMA) / SUPPORT_SIGMA
         stages.append(StageResult(stage.name, stage.kind, pc, ph, m.magnitude, m.n_cells,
                                   m.safety_factor, m.peak_stretch, m.failure, errs,
                                   m.magnitude_at_max, m.traced_to))

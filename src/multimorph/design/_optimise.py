@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from multimorph.design._evaluate import Evaluation, evaluate_candidates
+from multimorph.design._evaluate import SUPPORT_SIGMA, Evaluation, evaluate_candidates
 from multimorph.design._gradient import GradientStep, gradient_refine
 from multimorph.design._models import BatchModel, CountingModel, rom_batch_model
 from multimorph.design._space import N_VARS, VAR_NAMES, SearchSpace
@@ -432,7 +432,10 @@ def explain_design(space: SearchSpace, ev: Evaluation) -> list[str]:
                     "separation": "min_separation violated (the stages overlap)",
                     "safety_factor": "min_safety_factor violated (walls too close to break "
                                      "at max_pressure)",
-                    "length": "max_length violated (device too long)"}.get(what, what)
+                    "length": "max_length violated (device too long)",
+                    "support": "the cell model's Pc uncertainty exceeds "
+                               f"{SUPPORT_SIGMA:.0%} (the cell sits where the calibration "
+                               "has few FE designs)"}.get(what, what)
             out.append(f"{key.rsplit('.', 1)[0]}: {text} by {v:.0%}")
     bind = _binding(space, ev)
     if bind:
