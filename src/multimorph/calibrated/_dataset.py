@@ -42,7 +42,7 @@ MANIFEST = DATA_DIR / "fe_reference.json"
 #: The sets of the data set and the kind of cell each holds.
 REFERENCE_SETS = {"bending": "bending", "stretching": "stretching", "twisting": "twisting",
                   "bending_narrow": "bending", "stretching_narrow": "stretching",
-                  "bending_single": "bending",
+                  "bending_single": "bending", "bending_single2": "bending",
                   "grid24": "bending", "yeoh": "bending"}
 #: Sets kept out of the calibration whole (validation only).
 VALIDATION_SETS = ("grid24", "yeoh")

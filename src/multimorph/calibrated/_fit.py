@@ -48,7 +48,7 @@ __all__ = ["ANCHORS", "KIND_SETS", "MODEL_FILE", "TrainingData", "fe_training_da
 MODEL_FILE = DATA_DIR / "model.npz"
 MODEL_MANIFEST = DATA_DIR / "model.json"
 #: The calibration sets of each kind.
-KIND_SETS = {"bending": ("bending", "bending_narrow", "bending_single"),
+KIND_SETS = {"bending": ("bending", "bending_narrow", "bending_single", "bending_single2"),
              "stretching": ("stretching", "stretching_narrow"), "twisting": ("twisting",)}
 #: A kind is fitted only with at least this many training designs per GP input (its
 #: groups and three Ritz features): with fewer, the linear means alone nearly interpolate

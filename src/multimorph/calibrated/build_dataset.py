@@ -31,6 +31,7 @@ from multimorph.calibrated._dataset import (
 )
 
 ORDER = ("grid24", "yeoh", "bending_narrow", "stretching_narrow", "bending_single",
+         "bending_single2",
          "stretching", "twisting", "bending")
 
 

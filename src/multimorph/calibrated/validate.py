@@ -36,6 +36,7 @@ from multimorph.calibrated._validate import (
 SIGNAL_LABEL = {"bending": "κd (end rotation per cell, rad)", "stretching": "λ − 1",
                 "twisting": "strip shear γ"}
 CHECKS = (("bending", "bending"), ("bending", "bending_narrow"), ("bending", "bending_single"),
+          ("bending", "bending_single2"),
           ("bending", "grid24"), ("bending", "yeoh"),
           ("stretching", "stretching"), ("stretching", "stretching_narrow"),
           ("twisting", "twisting"))
