@@ -363,7 +363,7 @@ def simulate_cases() -> Iterator[Case]:
     yield case("unknown-key", "duplicate-module", 'name = "fingers"', 'name = "twister"',
                "twister")
     yield case("geometry", "stretching-asymmetric", 'bottom_wall = "0.5 mm"\nside_wall = '
-               '"0.55 mm"', 'bottom_wall = "0.6 mm"\nside_wall = "0.55 mm"', "seal", src=jar)
+               '"0.4 mm"', 'bottom_wall = "0.6 mm"\nside_wall = "0.4 mm"', "seal", src=jar)
     body = text.split("[[module]]")[0]
     yield Case(f"{cmd}/missing-key/modules", cmd, "missing-key", argv, "module",
                ((name, body.encode()),))
