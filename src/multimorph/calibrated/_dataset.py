@@ -43,7 +43,8 @@ MANIFEST = DATA_DIR / "fe_reference.json"
 REFERENCE_SETS = {"bending": "bending", "stretching": "stretching", "twisting": "twisting",
                   "bending_narrow": "bending", "stretching_narrow": "stretching",
                   "bending_single": "bending", "bending_single2": "bending",
-                  "grid24": "bending", "yeoh": "bending"}
+                  "grid24": "bending", "yeoh": "bending",
+                  "bending_mirror": "bending", "bending_single2_mirror": "bending"}
 #: Sets kept out of the calibration whole (validation only).
 VALIDATION_SETS = ("grid24", "yeoh")
 #: Path quantities stored per design (SI; NaN where a backend does not give one).

@@ -354,8 +354,10 @@ class FeBackend:
     and :data:`FE_EXTRA_OPTIONS`:
 
     * ``n_cells`` (default 1): the design is run as a module of that many cells in series;
-    * ``end`` (``"free"``, default, or ``"plate"``): how the free end is held
-      (:data:`multimorph.fe.CELL_ENDS`; a plate makes a lone cell a cell inside a module);
+    * ``end`` (``"free"``, default, ``"plate"`` or ``"mirror"``): how the free end is held
+      (:data:`multimorph.fe.CELL_ENDS`; a plate ties the end section rigidly, mirror ends
+      keep both end sections plane but free to stretch in their planes: the periodic cell
+      of a long module);
     * ``wall_elements``, ``length_fraction``: a :class:`multimorph.fe.MeshDensity` in place
       of the ``mesh`` preset;
     * ``pmax_rule = "rom"`` with ``pmax_factor`` f (default 1): each design is traced to
@@ -387,8 +389,12 @@ class FeBackend:
         opts = dict(options)
         extra = {k: opts.pop(k) for k in FE_EXTRA_OPTIONS if k in opts}
         end = extra.get("end", "free")
-        if end not in ("free", "plate"):
-            raise SpecError(f"sweep.options.end: expected \"free\" or \"plate\", got {end!r}")
+        if end not in fe.CELL_ENDS:
+            raise SpecError(f"sweep.options.end: expected one of "
+                            f"{', '.join(repr(e) for e in fe.CELL_ENDS)}, got {end!r}")
+        if end == "mirror" and tilted:
+            raise SpecError("sweep.options.end: \"mirror\" ends need straight cells; a "
+                            "twisting (tilted) sweep keeps \"plate\"")
         n_cells = extra.get("n_cells", 1)
         if isinstance(n_cells, bool) or not isinstance(n_cells, int) or n_cells < 1:
             raise SpecError(f"sweep.options.n_cells: expected a positive integer, got "

@@ -39,7 +39,11 @@ __all__ = ["CELL_ENDS", "STRIP_KEYS", "CellMeasure", "FEResult", "build_cell_pro
 #: rotation point). A plate makes a lone cell behave as a cell inside a module: there the
 #: mid-plane of every partition stays a plane section (mirror symmetry of uniform bending),
 #: as the clamp holds the other end, and no lone end wall bulges under one-sided pressure.
-CELL_ENDS = ("free", "plate")
+#: ``"mirror"``: both end faces are mirror planes, the clamp face held on y = 0 and the end
+#: face on a plane that moves and turns, both free to stretch in their planes (a straight
+#: half model): the periodic cell of a long module, whose partitions and bottom layer
+#: stretch sideways at the cell boundaries, which a plate's rigid section does not let them.
+CELL_ENDS = ("free", "plate", "mirror")
 
 #: the strip's mean in-plane strains a full model records (``path.extra``)
 STRIP_KEYS = ("shear", "shear_slope", "strip_axial_strain", "strip_lateral_strain",
@@ -70,8 +74,9 @@ class FEResult:
     stats: dict[str, Any] = field(default_factory=dict)
 
 
-def end_plate(mesh: CellMesh) -> tuple[list[tuple[np.ndarray, int, int]], float]:
-    """The rigid tie of a plated mesh's end face (:meth:`CellMesh.with_end_plate`) and its
+def end_plate(mesh: CellMesh) -> tuple[list[tuple[Any, ...]], float]:
+    """The tie of a plated mesh's end face (:meth:`CellMesh.with_end_plate`: rigid, or a
+    :class:`~multimorph.fe.engine.PlaneTie` for mirror ends) and its
     penalty stiffness (nondimensional): 10³ × the stiffest material's μ over the wall
     material's, times the smallest element edge over d (as the hubs of a device)."""
     if mesh.plate is None:
@@ -83,7 +88,8 @@ def end_plate(mesh: CellMesh) -> tuple[list[tuple[np.ndarray, int, int]], float]
     bottom = geometry.bottom_material
     stiff = max(geometry.material.shear_modulus,
                 bottom.shear_modulus if bottom is not None else 0.0)
-    return [(np.asarray(mesh.end_face), *mesh.plate)], 1e3 * stiff / geometry.mu * edge
+    kind = "plane" if mesh.slide else "rigid"
+    return [(np.asarray(mesh.end_face), *mesh.plate, kind)], 1e3 * stiff / geometry.mu * edge
 
 
 def build_cell_problem(mesh: CellMesh, end: str = "free",
@@ -93,8 +99,8 @@ def build_cell_problem(mesh: CellMesh, end: str = "free",
     With ``end="plate"`` the free end face is tied to a rigid plate (:data:`CELL_ENDS`,
     :meth:`CellMesh.with_end_plate`: two more nodes after the mesh's)."""
     _check_end(end)
-    if end == "plate":
-        mesh = mesh.with_end_plate()
+    if end in ("plate", "mirror"):
+        mesh = mesh.with_end_plate(slide=end == "mirror")
     length, mu = mesh.geometry.length, mesh.geometry.mu
     ties, stiffness = end_plate(mesh)
     return mesh_problem(mesh, length, mu, ties=ties, tie_stiffness=stiffness), length, mu
@@ -235,8 +241,8 @@ def simulate_cell(geometry: CellGeometry, settings: FESettings | None = None, *,
     started = time.perf_counter()
     mesh = cell_mesh(geometry, settings.mesh, element_size=settings.element_size,
                      half=settings.half, n_cells=n_cells, tilt=tilt)
-    if end == "plate":
-        mesh = mesh.with_end_plate()
+    if end in ("plate", "mirror"):
+        mesh = mesh.with_end_plate(slide=end == "mirror")
     ties, stiffness = end_plate(mesh)
     mu = geometry.mu
     p_max = settings.p_max if settings.p_max is not None else mu

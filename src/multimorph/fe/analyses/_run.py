@@ -186,7 +186,7 @@ class PathRecord:
 
 
 def mesh_problem(mesh: HexMesh, length: float, stress: float, *,
-                 ties: Sequence[tuple[np.ndarray, int, int]] = (),
+                 ties: Sequence[tuple[Any, ...]] = (),
                  tie_stiffness: float = 0.0) -> PressureProblem:
     """The nondimensional FE problem of a mesh: lengths in units of ``length`` (m), stresses
     in units of ``stress`` (Pa); its bodies (empty ones left out), the chamber faces under
@@ -204,7 +204,7 @@ def run_path(mesh: HexMesh, measure: Measure, settings: FESettings, *, p_max: fl
              length: float, stress: float, max_stretch: float | None, started: float,
              groups: tuple[str, ...] | None = None, progress: Progress | None = None,
              checkpoint: PathCheckpoint | None = None,
-             ties: Sequence[tuple[np.ndarray, int, int]] = (), tie_stiffness: float = 0.0,
+             ties: Sequence[tuple[Any, ...]] = (), tie_stiffness: float = 0.0,
              head: dict[str, Any] | None = None, tail: dict[str, Any] | None = None,
              ) -> PathRecord:
     """Build the FE problem of ``mesh``, trace and record its pressure path up to ``p_max``.

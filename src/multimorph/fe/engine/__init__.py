@@ -27,6 +27,7 @@ from multimorph.fe.engine._path import (
     retraced,
     trace_path,
 )
+from multimorph.fe.engine._plane import PlaneTie
 from multimorph.fe.engine._problem import AssemblyStats, PressureProblem
 from multimorph.fe.engine._solve import (
     NewtonInfo,
@@ -49,6 +50,7 @@ __all__ = [
     "PathCheckpoint",
     "PathPoint",
     "PathRun",
+    "PlaneTie",
     "PressureProblem",
     "TensortraxMath",
     "continuation",

@@ -31,6 +31,7 @@ import scipy.sparse as sp
 
 from multimorph.fe._deps import require
 from multimorph.fe.engine._material import felupe_umat
+from multimorph.fe.engine._plane import PlaneTie
 from multimorph.materials import Material
 
 __all__ = ["AssemblyStats", "PressureProblem"]
@@ -169,12 +170,15 @@ class PressureProblem:
     fixed : ndarray (npoints, dim) of bool
         Fixed displacement components.
     kind : {"3d", "axisymmetric", "plane_strain"}
-    ties : sequence of (points, center, rotation)
-        Rigid joints (3d): FElupe ``MultiPointConstraint`` items that keep the arms from node
-        ``center`` to ``points`` up to the rotation whose rotation vector is the value at
-        node ``rotation`` (a node of no element). The rotation is the total one from the
-        undeformed state (FElupe's converged-rotation state is never advanced), which is
-        well defined below a full turn and keeps the problem free of hidden state.
+    ties : sequence of (points, center, rotation[, kind])
+        Rigid joints (3d, ``kind="rigid"``, the default): FElupe ``MultiPointConstraint``
+        items that keep the arms from node ``center`` to ``points`` up to the rotation whose
+        rotation vector is the value at node ``rotation`` (a node of no element). The
+        rotation is the total one from the undeformed state (FElupe's converged-rotation
+        state is never advanced), which is well defined below a full turn and keeps the
+        problem free of hidden state. ``kind="plane"``: a :class:`PlaneTie` (the points stay
+        on a plane y = Y + s turned about x, free to slide in it; s and the turn are the y
+        value of ``center`` and the x value of ``rotation``).
     tie_stiffness : float
         The penalty of the ties (force per length, in the caller's units).
     """
@@ -184,7 +188,7 @@ class PressureProblem:
     pressure_mask: np.ndarray
     fixed: np.ndarray
     kind: str = "3d"
-    ties: Sequence[tuple[np.ndarray, int, int]] = ()
+    ties: Sequence[tuple[Any, ...]] = ()
     tie_stiffness: float = 0.0
     stats: AssemblyStats = field(default_factory=AssemblyStats)
 
@@ -215,15 +219,22 @@ class PressureProblem:
         self._pressure = fem.SolidBodyPressure(bfield, pressure=1.0)
         if self.ties and not self.tie_stiffness > 0:
             raise ValueError("ties need a positive tie_stiffness")
-        self._ties = [fem.MultiPointConstraint(self.field, np.asarray(pts), centerpoint=int(c),
-                                               rotationpoint=int(r),
-                                               multiplier=self.tie_stiffness)
-                      for pts, c, r in self.ties]
+        self._ties = [self._tie(fem, *tie) for tie in self.ties]
         self.fixed = np.asarray(self.fixed, dtype=bool).reshape(-1, dim)
         self.active = np.flatnonzero(~self.fixed.ravel())
         self.dim = dim
         self._last_x: np.ndarray | None = None
         self._sum = _ActiveSum(self.active, self.fixed.size)
+
+    def _tie(self, fem: Any, points: np.ndarray, center: int, rotation: int,
+             kind: str = "rigid") -> Any:
+        if kind == "rigid":
+            return fem.MultiPointConstraint(self.field, np.asarray(points), centerpoint=int(center),
+                                            rotationpoint=int(rotation),
+                                            multiplier=self.tie_stiffness)
+        if kind == "plane":
+            return PlaneTie(points, center, rotation, self.tie_stiffness, self.mesh.points)
+        raise ValueError(f"tie kind: expected 'rigid' or 'plane', got {kind!r}")
 
     # ------------------------------------------------------------------ state
     @property

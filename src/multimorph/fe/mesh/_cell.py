@@ -61,6 +61,10 @@ class CellMesh(HexMesh):
     plate : tuple of int, optional
         The centre and rotation nodes of a rigid end plate (:meth:`with_end_plate`); they
         belong to no element.
+    slide : bool
+        Mirror ends (:meth:`with_end_plate` ``(slide=True)``): the clamp face only keeps
+        y = 0 and the end face only stays a plane (turning about x), both free to stretch
+        in their planes, as the partitions' mid-planes inside a long module.
     """
 
     bend_line: np.ndarray
@@ -71,6 +75,7 @@ class CellMesh(HexMesh):
     n_cells: int = 1
     tilt: float = 0.0
     plate: tuple[int, int] | None = None
+    slide: bool = False
 
     @property
     def length(self) -> float:
@@ -92,14 +97,28 @@ class CellMesh(HexMesh):
             centre, rotation = self.plate
             out[centre, 0] = True
             out[rotation, 1:] = True
+            if self.slide:
+                # the clamp face stays on y = 0, free in its plane but for one node's z
+                # (the mirror plane holds x); the plane's offset is the centre's y
+                out[self.clamped, 0] = self.mirror[self.clamped]
+                out[self.clamped, 2] = False
+                clamped = np.flatnonzero(self.clamped & self.mirror)
+                out[clamped[np.argmin(self.points[clamped, 2])], 2] = True
+                out[centre, 2] = True
         return out
 
-    def with_end_plate(self) -> CellMesh:
+    def with_end_plate(self, slide: bool = False) -> CellMesh:
         """This mesh with two more nodes, the centre (at the end face's centroid; on the
         mirror plane of a half model) and the rotation node of a rigid plate to tie the free
-        end face to (:attr:`plate`)."""
+        end face to (:attr:`plate`). ``slide=True``: mirror ends instead (:attr:`slide`;
+        a straight half model only)."""
         if self.plate is not None:
+            if self.slide != slide:
+                raise ValueError("this mesh already has an end plate of the other kind")
             return self
+        if slide and not (self.half and self.tilt == 0.0):
+            raise SpecError("end: mirror ends need a straight half model (half = true, no "
+                            "tilt); a tilted cell keeps the rigid plate")
         centre = self.points[self.end_face].mean(axis=0)
         if self.half:
             centre[0] = self.geometry.width / 2
@@ -109,7 +128,7 @@ class CellMesh(HexMesh):
             self, points=np.vstack([self.points, centre, centre]),
             chamber_points=np.concatenate([self.chamber_points, no]),
             clamped=np.concatenate([self.clamped, no]),
-            mirror=np.concatenate([self.mirror, no]), plate=(n, n + 1))
+            mirror=np.concatenate([self.mirror, no]), plate=(n, n + 1), slide=slide)
 
     def unsheared(self) -> np.ndarray:
         """Node coordinates before the tilt shear (m): y − (x − w/2) tan β; the mesh's own
