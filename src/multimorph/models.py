@@ -11,9 +11,13 @@
   for each cell (a Ritz trace per cell: ~60 ms a curve, ~45 s to compile on first use).
 * ``"ritz"`` (alias ``"rom"``): the reduced (Ritz energy) model of :mod:`multimorph.rom` —
   the physics backbone, about twice as stiff as FE (its Pc ≈ 2 × FE's).
-* ``"fe"``: 3D finite elements (:mod:`multimorph.fe`), one cell at a time with the data
-  set's settings (a cell whose free end is a rigid plate, 2 elements through every wall,
-  edges d/20): minutes per cell, for ``cell`` and ``simulate``.
+* ``"fe"``: 3D finite elements (:mod:`multimorph.fe`), one cell at a time as inside a long
+  module: a straight cell with mirror ends (both end sections stay plane and stretch in
+  their planes, :data:`multimorph.fe.CELL_ENDS`), a tilted cell with its end on a rigid
+  plate; 2 elements through every wall, edges d/20: minutes per cell, for ``cell`` and
+  ``simulate``. (Until stop 31 a straight cell's end was a rigid plate too, as in the
+  bending sets of the data set: the same within 0.3 % for cells with a stiff bottom layer,
+  up to 35 % stiffer for one-elastomer cells; docs/validation.md.)
 
 Every model is a callable ``model(cell, p_max) -> Response`` (a
 :class:`~multimorph.geometry.TiltedCell` too, for twisting modules), and
@@ -91,7 +95,7 @@ def _fe(cell: CellGeometry | TiltedCell, p_max: float, **settings: Any) -> Respo
     if isinstance(cell, TiltedCell):
         res = simulate_cell(cell.cell, replace(s, half=False), tilt=cell.tilt, end="plate")
     else:
-        res = simulate_cell(cell, s, end="plate")
+        res = simulate_cell(cell, s, end="mirror" if s.half else "plate")
     return res.response.with_meta(model="fe")
 
 
