@@ -88,6 +88,8 @@ def test_every_reference_spec_parses_and_covers_its_kind(name: str) -> None:
                                         "bending_single": 40,
                                         "bending_single2": 40,
                                         "bending_single2_mirror": 40,
+                                        "bending_single_mirror": 40,
+                                        "bending_narrow_mirror": 40,
                                         "stretching_narrow_mirror": 25}.get(name, 100)
     if name.endswith(("_narrow", "_single", "_single2")):
         # a refinement set lies inside its kind's calibrated box (the main set's)

@@ -45,6 +45,7 @@ REFERENCE_SETS = {"bending": "bending", "stretching": "stretching", "twisting": 
                   "bending_single": "bending", "bending_single2": "bending",
                   "grid24": "bending", "yeoh": "bending",
                   "bending_mirror": "bending", "bending_single2_mirror": "bending",
+                  "bending_single_mirror": "bending", "bending_narrow_mirror": "bending",
                   "stretching_mirror": "stretching", "stretching_narrow_mirror": "stretching"}
 #: Sets kept out of the calibration whole (validation only).
 VALIDATION_SETS = ("grid24", "yeoh")
