@@ -125,6 +125,10 @@ def test_fe_backend_options_are_checked_before_any_run() -> None:
                        ({"no_such_setting": 1}, "not an FE setting")):
         with pytest.raises(SpecError, match=field):
             be.validate(6e4, bad)
+    be.validate(6e4, {"end": "mirror"})            # straight cells: mirror ends
+    fe = be._api()
+    with pytest.raises(SpecError, match="sweep.options.end: .*mirror.* straight cells"):
+        be._settings(fe, 6e4, {"end": "mirror"}, tilted=True)
 
 
 def test_tilted_shear_is_the_twisting_modules_rule() -> None:
