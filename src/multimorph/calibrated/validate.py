@@ -38,7 +38,7 @@ SIGNAL_LABEL = {"bending": "κd (end rotation per cell, rad)", "stretching": "λ
 CHECKS = (("bending", "bending"), ("bending", "bending_narrow"), ("bending", "bending_single"),
           ("bending", "bending_single2"),
           ("bending", "grid24"), ("bending", "yeoh"),
-          ("stretching", "stretching"), ("stretching", "stretching_narrow"),
+          ("stretching", "stretching_mirror"), ("stretching", "stretching_narrow_mirror"),
           ("twisting", "twisting"))
 
 
