@@ -127,7 +127,7 @@ def test_fe_backend_options_are_checked_before_any_run() -> None:
             be.validate(6e4, bad)
     be.validate(6e4, {"end": "mirror"})            # straight cells: mirror ends
     fe = be._api()
-    with pytest.raises(SpecError, match="sweep.options.end: .*mirror.* straight cells"):
+    with pytest.raises(SpecError, match=r"sweep\.options\.end: .*mirror.* straight cells"):
         be._settings(fe, 6e4, {"end": "mirror"}, tilted=True)
 
 
