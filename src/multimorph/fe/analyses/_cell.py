@@ -36,9 +36,9 @@ __all__ = ["CELL_ENDS", "STRIP_KEYS", "CellMeasure", "FEResult", "build_cell_pro
 
 #: How the free end of a cell (or module) is held: ``"free"``, or ``"plate"``: its end face
 #: tied to a rigid plate that may move and turn (a penalty multi-point constraint with a
-#: rotation point). A plate makes a lone cell behave as a cell inside a module: there the
-#: mid-plane of every partition stays a plane section (mirror symmetry of uniform bending),
-#: as the clamp holds the other end, and no lone end wall bulges under one-sided pressure.
+#: rotation point): the end section moves and turns but keeps its shape, so no lone end wall
+#: bulges under one-sided pressure (the FE reference sets before stop 31 used it for a cell
+#: "as inside a module"; for one-elastomer cells it is up to 35 % too stiff on Pc).
 #: ``"mirror"``: both end faces are mirror planes, the clamp face held on y = 0 and the end
 #: face on a plane that moves and turns, both free to stretch in their planes (a straight
 #: half model): the periodic cell of a long module, whose partitions and bottom layer
@@ -96,11 +96,10 @@ def build_cell_problem(mesh: CellMesh, end: str = "free",
                        ) -> tuple[PressureProblem, float, float]:
     """The nondimensional FE problem of a meshed cell; returns (problem, L, μ).
 
-    With ``end="plate"`` the free end face is tied to a rigid plate (:data:`CELL_ENDS`,
-    :meth:`CellMesh.with_end_plate`: two more nodes after the mesh's)."""
-    _check_end(end)
-    if end in ("plate", "mirror"):
-        mesh = mesh.with_end_plate(slide=end == "mirror")
+    With ``end="plate"`` the free end face is tied to a rigid plate, with ``end="mirror"``
+    both end faces are mirror planes (:data:`CELL_ENDS`, :meth:`CellMesh.with_end_plate`:
+    two more nodes after the mesh's)."""
+    mesh = _with_end(mesh, end)
     length, mu = mesh.geometry.length, mesh.geometry.mu
     ties, stiffness = end_plate(mesh)
     return mesh_problem(mesh, length, mu, ties=ties, tie_stiffness=stiffness), length, mu
@@ -109,6 +108,12 @@ def build_cell_problem(mesh: CellMesh, end: str = "free",
 def _check_end(end: str) -> None:
     if end not in CELL_ENDS:
         raise SpecError(f"end: expected one of {', '.join(CELL_ENDS)}, got {end!r}")
+
+
+def _with_end(mesh: CellMesh, end: str) -> CellMesh:
+    """``mesh`` with the plate nodes its ``end`` needs (:data:`CELL_ENDS`)."""
+    _check_end(end)
+    return mesh if end == "free" else mesh.with_end_plate(slide=end == "mirror")
 
 
 class CellMeasure:
@@ -241,8 +246,7 @@ def simulate_cell(geometry: CellGeometry, settings: FESettings | None = None, *,
     started = time.perf_counter()
     mesh = cell_mesh(geometry, settings.mesh, element_size=settings.element_size,
                      half=settings.half, n_cells=n_cells, tilt=tilt)
-    if end in ("plate", "mirror"):
-        mesh = mesh.with_end_plate(slide=end == "mirror")
+    mesh = _with_end(mesh, end)
     ties, stiffness = end_plate(mesh)
     mu = geometry.mu
     p_max = settings.p_max if settings.p_max is not None else mu
