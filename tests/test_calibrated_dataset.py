@@ -76,6 +76,7 @@ def test_the_holdout_split_is_a_fixed_fifth_that_does_not_move() -> None:
     assert [is_holdout("bending", i) for i in range(40)] == [
         is_holdout("bending", i) for i in range(40)]
     assert all(is_holdout("grid24", i) for i in range(24))  # a validation set only
+    assert all(is_holdout("grid24_mirror", i) for i in range(24))
 
 
 @pytest.mark.parametrize("name", sorted(REFERENCE_SETS))
@@ -83,7 +84,8 @@ def test_every_reference_spec_parses_and_covers_its_kind(name: str) -> None:
     spec = reference_spec(name)
     assert spec.backend == "fe" and spec.kind == REFERENCE_SETS[name]
     table = spec.design_table()
-    assert len(table.valid_indices) >= {"grid24": 24, "yeoh": 8, "bending_narrow": 40,
+    assert len(table.valid_indices) >= {"grid24": 24, "yeoh": 8, "grid24_mirror": 24,
+                                        "yeoh_mirror": 8, "bending_narrow": 40,
                                         "stretching_narrow": 25,
                                         "bending_single": 40,
                                         "bending_single2": 40,

@@ -46,9 +46,10 @@ REFERENCE_SETS = {"bending": "bending", "stretching": "stretching", "twisting": 
                   "grid24": "bending", "yeoh": "bending",
                   "bending_mirror": "bending", "bending_single2_mirror": "bending",
                   "bending_single_mirror": "bending", "bending_narrow_mirror": "bending",
-                  "stretching_mirror": "stretching", "stretching_narrow_mirror": "stretching"}
+                  "stretching_mirror": "stretching", "stretching_narrow_mirror": "stretching",
+                  "grid24_mirror": "bending", "yeoh_mirror": "bending"}
 #: Sets kept out of the calibration whole (validation only).
-VALIDATION_SETS = ("grid24", "yeoh")
+VALIDATION_SETS = ("grid24", "yeoh", "grid24_mirror", "yeoh_mirror")
 #: Path quantities stored per design (SI; NaN where a backend does not give one).
 CURVES = ("pressure", "curvature", "peak_stretch", "axial_stretch", "volume", "bend_angle",
           "shear", "twist_rate")
