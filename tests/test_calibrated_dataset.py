@@ -102,3 +102,34 @@ def test_every_reference_spec_parses_and_covers_its_kind(name: str) -> None:
         for cell in table.cells:
             if cell is not None:
                 assert not box.outside(cell_groups(cell))
+
+
+def test_a_design_held_out_of_its_twin_set_is_seen_by_no_fit_or_check() -> None:
+    """The mirror-ended twin of a set holds the same designs: a fit on both keeps a design
+    out when either split holds it out, and a check of a twin the model was not fitted on
+    counts only the designs whose fitted twin was held out (the model never saw them in
+    any form)."""
+    from multimorph.calibrated._fit import twin_set
+    from multimorph.calibrated.validate import unseen_designs
+
+    assert twin_set("bending") == "bending_mirror" and twin_set("bending_mirror") == "bending"
+    design = np.arange(200)
+    own = np.array([is_holdout("bending_mirror", int(d)) for d in design])
+    twin = np.array([is_holdout("bending", int(d)) for d in design])
+    assert own.any() and twin.any() and (own != twin).any()
+    plate_fit = {"kinds": {"bending": {"sets": ["bending", "bending_narrow"]}}}
+    mirror_fit = {"kinds": {"bending": {"sets": ["bending_mirror"]}}}
+    np.testing.assert_array_equal(
+        unseen_designs(plate_fit, "bending", "bending_mirror", design, own), twin)
+    np.testing.assert_array_equal(
+        unseen_designs(mirror_fit, "bending", "bending_mirror", design, own), own)
+    np.testing.assert_array_equal(
+        unseen_designs({"kinds": {}}, "bending", "bending_mirror", design, own),
+        np.ones(200, bool))
+    assert unseen_designs(plate_fit, "bending", "grid24_mirror", np.arange(24),
+                          np.ones(24, bool)).all()
+    from multimorph.calibrated._fit import fe_training_data
+
+    both = fe_training_data("bending", set_names=("bending", "bending_mirror"), ritz=False)
+    for s, d, h in zip(both.set_name, both.design, both.holdout, strict=True):
+        assert h == (is_holdout(str(s), int(d)) or is_holdout(twin_set(str(s)), int(d)))
