@@ -109,7 +109,7 @@ def test_a_design_held_out_of_its_twin_set_is_seen_by_no_fit_or_check() -> None:
     out when either split holds it out, and a check of a twin the model was not fitted on
     counts only the designs whose fitted twin was held out (the model never saw them in
     any form)."""
-    from multimorph.calibrated._fit import twin_set
+    from multimorph.calibrated._fit import fe_training_data, twin_set
     from multimorph.calibrated.validate import unseen_designs
 
     assert twin_set("bending") == "bending_mirror" and twin_set("bending_mirror") == "bending"
@@ -128,8 +128,6 @@ def test_a_design_held_out_of_its_twin_set_is_seen_by_no_fit_or_check() -> None:
         np.ones(200, bool))
     assert unseen_designs(plate_fit, "bending", "grid24_mirror", np.arange(24),
                           np.ones(24, bool)).all()
-    from multimorph.calibrated._fit import fe_training_data
-
     both = fe_training_data("bending", set_names=("bending", "bending_mirror"), ritz=False)
     for s, d, h in zip(both.set_name, both.design, both.holdout, strict=True):
         assert h == (is_holdout(str(s), int(d)) or is_holdout(twin_set(str(s)), int(d)))
