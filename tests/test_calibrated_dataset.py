@@ -131,3 +131,29 @@ def test_a_design_held_out_of_its_twin_set_is_seen_by_no_fit_or_check() -> None:
     both = fe_training_data("bending", set_names=("bending", "bending_mirror"), ritz=False)
     for s, d, h in zip(both.set_name, both.design, both.holdout, strict=True):
         assert h == (is_holdout(str(s), int(d)) or is_holdout(twin_set(str(s)), int(d)))
+
+
+def test_every_fe_activation_is_read_after_the_chamber_balloons() -> None:
+    """Real FE paths of the data set (stop 33): a mirror-ended cell that barely bends
+    (bending_mirror #20: its end turns by 10⁻³ rad in its first steps) used to read its
+    "Pc" at 0.9 kPa, a volume ratio of 1.09, against the fold at 22.6 kPa where it balloons;
+    a path cut at 5.5 kPa by the reduced model's early Pc (#99) read 2.3 kPa. Every Pc of
+    the bending sets now lies where the chamber has grown by at least
+    BALLOONING_VOLUME_RATIO (the ballooning cells read at 2.0 and above)."""
+    from multimorph.calibrated._validate import fe_response
+    from multimorph.response import BALLOONING_VOLUME_RATIO
+
+    ref = load_reference()["bending_mirror"]
+    rows = {int(d): r for r, d in enumerate(ref.design)}
+    c20 = fe_response(ref.path(rows[20]), ref.cell(rows[20]), "bending").characteristic
+    assert c20.critical_kind == "limit_point"
+    assert c20.critical == pytest.approx(22.6e3, rel=0.01)
+    c99 = fe_response(ref.path(rows[99]), ref.cell(rows[99]), "bending").characteristic
+    assert c99.critical is None and c99.hardening is None
+    for r in np.flatnonzero(ref.ok):
+        path = ref.path(int(r))
+        ch = fe_response(path, ref.cell(int(r)), "bending").characteristic
+        if ch.critical is not None:
+            v = np.interp(ch.critical, path["pressure"][:np.argmax(path["pressure"]) + 1],
+                          path["volume"][:np.argmax(path["pressure"]) + 1])
+            assert v >= BALLOONING_VOLUME_RATIO * path["volume"][0]

@@ -13,12 +13,14 @@ from multimorph.response import (
 )
 
 
-def _path(P, k, stable=None, peak=None):
+def _path(P, k, stable=None, peak=None, volume=None):
     P = np.asarray(P, float)
     n = P.shape[0]
+    # a chamber grows as its cell moves, whichever way it bends
+    vol = 1.0 + np.abs(np.asarray(k, float)) if volume is None else np.asarray(volume, float)
     return EquilibriumPath(
         pressure=P, curvature=np.asarray(k, float), twist_rate=np.zeros(n),
-        axial_stretch=np.ones(n), volume=np.asarray(k, float) + 1.0,
+        axial_stretch=np.ones(n), volume=vol,
         peak_stretch=np.ones(n) if peak is None else np.asarray(peak, float),
         stable=np.ones(n, bool) if stable is None else np.asarray(stable, bool))
 
@@ -255,3 +257,23 @@ def test_a_cell_that_bends_the_other_way_activates_at_the_same_pressures():
     assert down.hardening == pytest.approx(up.hardening, rel=0.02)
     # the reported curvatures keep their sign
     assert down.curvature_at["critical"] < 0 < up.curvature_at["critical"]
+
+
+def test_a_rise_before_the_chamber_balloons_is_not_the_activation():
+    """The signal moves by a third of its range at P = 0.1 while the chamber has grown by
+    0.1 % (no ballooning: noise of a cell that barely bends), then the chamber balloons
+    around P = 1: Pc is the ballooning's (BALLOONING_VOLUME_RATIO)."""
+    P = np.linspace(0.0, 2.0, 401)
+    balloon = np.tanh(4.0 * (P - 1.0)) + np.tanh(4.0)
+    k = 0.25 * (np.tanh(40.0 * (P - 0.1)) + 1.0) + balloon + 0.01 * P
+    volume = 1.0 + 3.0 * balloon
+    c = characteristic_pressures(_path(P, k, volume=volume))
+    assert c.critical_kind == "max_slope"
+    assert c.critical == pytest.approx(1.0, abs=0.01)
+    # the same signal on a chamber that has ballooned by P = 0.1 reads the first rise
+    early = characteristic_pressures(_path(P, k, volume=1.0 + 3.0 * (P > 0.05) + P))
+    assert early.critical == pytest.approx(0.1, abs=0.01)
+    # a path that stops before the ballooning has no Pc at all, not the early rise
+    cut = P <= 0.6
+    none = characteristic_pressures(_path(P[cut], k[cut], volume=volume[cut]))
+    assert none.critical is None and none.hardening is None

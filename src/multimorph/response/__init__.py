@@ -11,6 +11,7 @@ it in one call.
 
 from multimorph.response._build import build_response
 from multimorph.response._characteristic import (
+    BALLOONING_VOLUME_RATIO,
     DEFINITIONS_VERSION,
     characteristic_pressures,
     critical_pressure,
@@ -20,6 +21,7 @@ from multimorph.response._observed import observed_curves, observed_positions
 from multimorph.response._types import CharacteristicPressures, EquilibriumPath, Response
 
 __all__ = [
+    "BALLOONING_VOLUME_RATIO",
     "DEFINITIONS_VERSION",
     "CharacteristicPressures",
     "EquilibriumPath",

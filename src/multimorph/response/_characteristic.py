@@ -23,7 +23,9 @@ Definitions (physics-notes §6; the same for every backend):
   falls after it, by at least :data:`SLOPE_DROP` of the maximum before the end of the curve.
   A slope that is still rising (or level) where the path stops, at ``p_max`` or earlier,
   means the activation lies beyond the traced range: Pc is ``None`` ("not reached"), never
-  the last pressure traced.
+  the last pressure traced. A steepest rise before the chamber has ballooned (its volume
+  below :data:`BALLOONING_VOLUME_RATIO` × the first) is never a max-slope Pc: on a cell
+  that barely bends, the first steps' slope of a signal that moves by 10⁻³ is noise.
   Both are refined by a parabola through the three points around the discrete extremum.
 * **Ph, hardening pressure.** The strain-hardening knee after Pc, where the steep rise turns
   into the plateau. After a max-slope Pc: the first pressure at which dκ/dP has fallen to
@@ -61,15 +63,17 @@ from multimorph.errors import SpecError
 from multimorph.response._observed import observed_curves
 from multimorph.response._types import CharacteristicPressures, EquilibriumPath
 
-__all__ = ["DEFINITIONS_VERSION", "INFLECTION_PROMINENCE", "INFLECTION_RISE", "INFLECTION_SHARE",
+__all__ = ["BALLOONING_VOLUME_RATIO", "DEFINITIONS_VERSION", "INFLECTION_PROMINENCE",
+           "INFLECTION_RISE", "INFLECTION_SHARE",
            "KNEE_SLOPE_FRACTION", "PRESSURE_RESOLUTION", "SIGNALS", "SLOPE_DROP",
            "SNAP_FRACTION", "characteristic_pressures", "critical_pressure",
            "hardening_pressure", "motion_sense"]
 
 #: Version of these definitions: raised whenever a change moves Pc or Ph read on the same
 #: path, so results cached with derived pressures (FE checks of designs) are not re-used
-#: across it. 2: the first activation and the knee from the slope (stop 30).
-DEFINITIONS_VERSION = 2
+#: across it. 2: the first activation and the knee from the slope (stop 30). 3: no
+#: max-slope Pc before the chamber has ballooned (:data:`BALLOONING_VOLUME_RATIO`).
+DEFINITIONS_VERSION = 3
 
 #: Path quantities the characteristic pressures can be read on.
 SIGNALS = ("curvature", "axial_stretch", "twist_rate")
@@ -107,6 +111,15 @@ INFLECTION_RISE = 1.5
 #: its flattest point (a bump of the first loaded points is not the ballooning: on 3D FE
 #: cells the first steps can bend a cell by a few per cent of its range at a few kPa).
 INFLECTION_SHARE = 0.25
+
+#: A steepest rise of the signal before the chamber volume has grown by this factor (over
+#: its first point) is not the ballooning, and is not read as a max-slope Pc. Measured on
+#: the FE reference data set (732 bending cells with a Pc): every ballooning reads at a
+#: volume ratio of 2.0 or more, except two spurious readings at 1.09 and 1.10 (a cell that
+#: barely bends, whose end rotation moves by 10⁻³ rad in its first steps: "Pc" 0.9 kPa
+#: against a fold at 22.6 kPa); the reduced model reads every Pc at 1.57 or more except
+#: one at 1.08 (6.5 kPa against about 60 kPa in FE). Paths without a volume skip the test.
+BALLOONING_VOLUME_RATIO = 1.3
 
 
 def _vertex(x: np.ndarray, y: np.ndarray, i: int) -> tuple[float, float]:
@@ -179,13 +192,14 @@ def _limit_point(path: EquilibriumPath) -> int | None:
     return None
 
 
-def _first_inflection(k: np.ndarray, slope: np.ndarray) -> int | None:
+def _first_inflection(k: np.ndarray, slope: np.ndarray,
+                      early: np.ndarray | None = None) -> int | None:
     """Index of the first completed activation of a loading curve κ with slope dκ/dP: an
     interior local maximum of the slope at least :data:`INFLECTION_RISE` × the first slope,
     followed by a fall of :data:`INFLECTION_PROMINENCE` of it — with κ still rising there: a
     knee, not a turn — before the slope exceeds it again, and whose rise up to the flattest
     point before that moves κ by at least :data:`INFLECTION_SHARE` of the curve's range
-    (None: none)."""
+    (None: none). Points marked ``early`` (before the ballooning) are no candidates."""
     if len(slope) < 3:
         return None
     base = max(float(slope[0]), 0.0)
@@ -194,6 +208,8 @@ def _first_inflection(k: np.ndarray, slope: np.ndarray) -> int | None:
     peaks = 1 + np.flatnonzero((mid > 0) & (mid >= slope[:-2]) & (mid >= slope[2:])
                                & (mid >= INFLECTION_RISE * base))
     for j in peaks:
+        if early is not None and early[j]:
+            continue
         sj = slope[j]
         after = slope[j + 1:]
         higher = np.flatnonzero(after > sj)
@@ -208,6 +224,17 @@ def _first_inflection(k: np.ndarray, slope: np.ndarray) -> int | None:
     return None
 
 
+def _before_ballooning(loading: EquilibriumPath, P: np.ndarray) -> np.ndarray | None:
+    """At each pressure ``P`` of the loading curve: whether its chamber volume is still
+    below :data:`BALLOONING_VOLUME_RATIO` × its first volume (None: no usable volume)."""
+    lp = np.asarray(loading.pressure, float)
+    v = np.asarray(loading.volume, float)
+    if v.size != lp.size or v.size < 2 or not (np.all(np.isfinite(v)) and v[0] > 0):
+        return None
+    order = np.argsort(lp, kind="stable")
+    return np.interp(P, lp[order], v[order]) < BALLOONING_VOLUME_RATIO * v[0]
+
+
 def critical_pressure(path: EquilibriumPath, loading: EquilibriumPath | None = None,
                       ) -> tuple[float | None, str | None, float | None]:
     """Pc, its kind and κ there (see the module docstring for the definition)."""
@@ -216,13 +243,15 @@ def critical_pressure(path: EquilibriumPath, loading: EquilibriumPath | None = N
     i = _limit_point(path)
     loading = loading if loading is not None else observed_curves(path)[0]
     P, k = _monotone(loading.pressure, loading.curvature)
+    early = _before_ballooning(loading, P)
     if i is not None:
         # the loading curve up to the fold: a completed activation there comes first
         before = P <= path.pressure[i]
         j = None
         if before.sum() >= 4:
             slope = np.gradient(k[before], P[before])
-            j = _first_inflection(k[before], slope)
+            j = _first_inflection(k[before], slope,
+                                  None if early is None else early[before])
         if j is not None:
             pc, _ = _vertex(P[before], slope, j)
             return pc, "max_slope", float(np.interp(pc, P, k))
@@ -233,9 +262,12 @@ def critical_pressure(path: EquilibriumPath, loading: EquilibriumPath | None = N
     if len(P) < 3:
         return None, None, None
     slope = np.gradient(k, P)
-    j = _first_inflection(k, slope)
+    j = _first_inflection(k, slope, early)
     if j is None:
-        j = int(np.argmax(slope))
+        ballooned = slope if early is None else np.where(early, -np.inf, slope)
+        j = int(np.argmax(ballooned))
+        if early is not None and early[j]:
+            return None, None, None
         if not _inflection_reached(slope, j):
             return None, None, None
     pc, _ = _vertex(P, slope, j)
