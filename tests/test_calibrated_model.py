@@ -142,3 +142,51 @@ def test_the_fast_variant_reads_emulated_features_and_stays_near_the_exact_model
     pc, pc_fast = exact.characteristic.critical, fast.characteristic.critical
     assert pc is not None and pc_fast is not None
     assert abs(pc_fast / pc - 1.0) < 0.25
+
+
+def test_the_bending_model_answers_as_inside_a_module_and_knows_the_plate_level() -> None:
+    """Since stop 33 the bending GPs take the cell's end condition as an input (plate-ended
+    sets 0, their mirror-ended twins 1; ``_fit.end_column``) and every command is answered
+    at 1, the cell as inside a module. On designs the fit never saw with either end, where
+    the plate stiffens the cell by 5 % or more (one-elastomer and wide cells), the mirror
+    level must follow the mirror FE and sit below the plate level, which follows the plate
+    FE: the input carries the physics of the ends, not noise."""
+    from multimorph.calibrated._dataset import is_holdout, load_reference
+    from multimorph.calibrated._validate import fe_response
+    from multimorph.calibrated.validate import at_end_of
+
+    model = load_model()
+    assert model.kinds["bending"].end_input == 1.0
+    plate_model, end = at_end_of(model, "bending", "bending")
+    assert end == 0.0 and plate_model.kinds["bending"].end_input == 0.0
+    assert at_end_of(model, "bending", "bending_mirror")[0] is model
+    sets = load_reference()
+    rows = []
+    for plate in ("bending", "bending_single", "bending_single2", "bending_narrow"):
+        a, b = sets[plate], sets[f"{plate}_mirror"]
+        index = {int(d): i for i, d in enumerate(a.design)}
+        for j, d in enumerate(b.design):
+            i = index.get(int(d))
+            if i is None or not (a.ok[i] and b.ok[j]):
+                continue
+            if not (is_holdout(plate, int(d)) or is_holdout(f"{plate}_mirror", int(d))):
+                continue
+            fp = fe_response(a.path(i), a.cell(i), "bending").characteristic.critical
+            fm = fe_response(b.path(j), b.cell(j), "bending").characteristic.critical
+            if fp and fm and fm < 0.95 * fp:
+                rows.append((b.cell(j), fp, fm, float(np.max(a.path(i)["pressure"]))))
+    assert len(rows) >= 10
+    err_m, err_p, ratio = [], [], []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", CalibrationWarning)
+        for cell, fp, fm, pmax in rows:
+            m = model.responses([cell], pmax)[0].characteristic.critical
+            p = plate_model.responses([cell], pmax)[0].characteristic.critical
+            if m is None or p is None:
+                continue
+            err_m.append(abs(m - fm) / fm)
+            err_p.append(abs(p - fp) / fp)
+            ratio.append(m / p)
+    assert len(ratio) >= 0.8 * len(rows)
+    assert np.median(err_m) < 0.10 and np.median(err_p) < 0.10
+    assert np.median(ratio) < 0.95

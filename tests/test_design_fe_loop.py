@@ -19,6 +19,9 @@ from multimorph.design._fe_check import FE_CHECK_FORMAT
 pytestmark = pytest.mark.slow
 pytest.importorskip("felupe")
 
+#: re-tuned at stop 33 (the bending model answers as the cell inside a module, softer for
+#: one-elastomer cells): 20 kPa / 20–26 kPa / 32 kPa became infeasible on it (the stiffest
+#: Dragon Skin 10 stalk in this box completes by 23 kPa)
 TARGET = """
 [target]
 name = "small two-stage"
@@ -27,16 +30,16 @@ name = "small two-stage"
 name = "seal"
 kind = "stretch"
 stretch = "60 %"
-pressure = "20 kPa"
+pressure = "16 kPa"
 
 [[stage]]
 name = "stalk"
 kind = "bend"
 angle = "30 deg"
-band = ["20 kPa", "26 kPa"]
+band = ["16 kPa", "18.5 kPa"]
 
 [constraints]
-max_pressure = "32 kPa"
+max_pressure = "26 kPa"
 materials = ["dragon-skin-10"]
 min_wall = "1 mm"
 max_length = "40 mm"
@@ -111,9 +114,9 @@ def test_one_fe_round(tmp_path, route):
             assert (_miss(second.check, t) < _miss(first.check, t)
                     or second.check.objective < first.check.objective)
         # the design kept is the best FE-checked one: a round that moves away from the
-        # targets (on the modules route here the stalk's FE bend is half the model's, the
-        # correction is clipped at 0.5 and round 1 overshoots: objective 15.7 -> 108)
-        # does not replace it
+        # targets (on the modules route here the stalk's FE bend is 0.73 of the model's
+        # and round 1 overshoots it: objective 3.9 -> 10.9; the device route improves,
+        # 3.4 -> 1.4, stop 33) does not replace it
         assert r.fe_best.objective == min(rd.check.objective for rd in r.fe_rounds)
     # a second run re-uses the finished FE rounds (no new FE file, same FE values)
     again = _run(folder, route).result

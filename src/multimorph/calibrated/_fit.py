@@ -55,12 +55,16 @@ MODEL_FILE = DATA_DIR / "model.npz"
 MODEL_MANIFEST = DATA_DIR / "model.json"
 #: The calibration sets of each kind. Stretching cells since stop 31: the sets with mirror
 #: ends (the cell as inside a module; the plate sets were 8 % (Pc) and 16 % (Ph) stiffer,
-#: median, docs/validation.md §1). Bending still on the plate sets: the fits on the mirror
-#: twins built by stop 32 were worse than the plate fit, mostly through a few bad mirror
-#: labels (a path cut short by the "rom" pressure rule, a Pc read at 0.9 kPa); without
-#: them the twins-alone fit is 2.3 % / 5.6 % on Pc (docs/validation.md §3, stop 32). The
-#: switch waits for a path quality check and the rest of the twins.
-KIND_SETS = {"bending": ("bending", "bending_narrow", "bending_single", "bending_single2"),
+#: median, docs/validation.md §1). Bending since stop 33: the plate sets and their mirror
+#: twins together, the end condition a GP input (:func:`end_column`) and the model
+#: predicting mirror ends. The plate sets are the larger, complete sample; the twins say
+#: how far a plate is from the cell inside a module (pairs 0.94 on Pc, median, down to 0.79).
+#: Fitted on the twins alone it was worse on held-out twins (Ph median / p90 3.5 / 13.2 %
+#: against 2.7 / 10.9 % with both) and on the 24-design grid's (Ph 6.0 / 14.8 % against
+#: 4.6 / 10.3 %; docs/validation.md §3, stop 33).
+KIND_SETS = {"bending": ("bending", "bending_narrow", "bending_single", "bending_single2",
+                         "bending_mirror", "bending_narrow_mirror", "bending_single_mirror",
+                         "bending_single2_mirror"),
              "stretching": ("stretching_mirror", "stretching_narrow_mirror"),
              "twisting": ("twisting",)}
 #: A kind is fitted only with at least this many training designs per GP input (its
@@ -88,9 +92,24 @@ def kind_features(kind: str, feats: np.ndarray, tilt: np.ndarray | None = None) 
 
 
 def model_inputs(box: Box, groups: np.ndarray, kfeats: np.ndarray, fmean: np.ndarray,
-                 fstd: np.ndarray) -> np.ndarray:
-    """GP inputs: scaled groups and standardised Ritz features."""
-    return np.column_stack([box.scaled(groups), (kfeats - fmean) / fstd])
+                 fstd: np.ndarray, end: np.ndarray | float | None = None) -> np.ndarray:
+    """GP inputs: scaled groups and standardised Ritz features, and with ``end`` the cell's
+    end condition (0 plate, 1 mirror: :func:`end_column`)."""
+    cols = [box.scaled(groups), (kfeats - fmean) / fstd]
+    if end is not None:
+        cols.append(np.broadcast_to(np.asarray(end, float), (len(groups),))[:, None])
+    return np.column_stack(cols)
+
+
+def end_column(data: TrainingData) -> np.ndarray | None:
+    """The end-condition input of a kind trained on plate-ended and mirror-ended sets (1
+    mirror, 0 plate; None when its sets share one end condition). With it the GPs learn a
+    plate cell and its mirror twin as two correlated levels of one response (the indicator
+    form of multi-fidelity co-kriging: its length scale says how far apart they are), and
+    the model predicts at 1, the cell as inside a module."""
+    if data.end is None or not len(data.end) or np.all(data.end == data.end[0]):
+        return None
+    return data.end
 
 
 def twin_set(name: str) -> str:
@@ -115,6 +134,8 @@ class TrainingData:
     paths: list[dict[str, np.ndarray]]
     #: log(Pc/μ) and log(Ph/μ) of the FE path (n, 2); NaN where it has none
     anchors: np.ndarray | None = None
+    #: the end condition of each design's set: 1.0 mirror ends, 0.0 a plate (or free)
+    end: np.ndarray | None = None
 
 
 def fe_signal(kind: str, path: dict[str, np.ndarray], n_cells: int) -> np.ndarray:
@@ -138,7 +159,8 @@ def fe_training_data(kind: str, sets: dict[str, ReferenceSet] | None = None,
     from multimorph.calibrated._validate import fe_response
 
     rows: dict[str, list[Any]] = {k: [] for k in ("set", "design", "groups", "y", "mask",
-                                                   "holdout", "cell", "path", "anchors")}
+                                                   "holdout", "cell", "path", "anchors",
+                                                   "end")}
     for name in names:
         ref = sets.get(name)
         if ref is None:
@@ -148,6 +170,7 @@ def fe_training_data(kind: str, sets: dict[str, ReferenceSet] | None = None,
         # stays out of a fit on both: its twin would tell the GP its answer
         if twin_set(name) in names:
             hold |= np.array([is_holdout(twin_set(name), int(d)) for d in ref.design], bool)
+        mirror = reference_spec(name).options.get("end") == "mirror"
         for r in np.flatnonzero(ref.ok):
             cell = ref.cell(int(r))
             c = cell.cell if hasattr(cell, "tilt") else cell
@@ -164,6 +187,7 @@ def fe_training_data(kind: str, sets: dict[str, ReferenceSet] | None = None,
             rows["y"].append(y)
             rows["mask"].append(cov)
             rows["holdout"].append(bool(hold[r]))
+            rows["end"].append(1.0 if mirror else 0.0)
             rows["cell"].append(cell)
             rows["path"].append(path)
             ch = fe_response(path, cell, kind, n_cells).characteristic
@@ -183,7 +207,7 @@ def fe_training_data(kind: str, sets: dict[str, ReferenceSet] | None = None,
         y=np.array(rows["y"]).reshape(n, len(T_GRID), len(QUANTITIES[kind])),
         mask=np.array(rows["mask"], bool).reshape(n, len(T_GRID)),
         holdout=np.array(rows["holdout"], bool), cells=rows["cell"], paths=rows["path"],
-        anchors=anchors)
+        anchors=anchors, end=np.array(rows["end"], float))
 
 
 def _tilts(data: TrainingData) -> np.ndarray | None:
@@ -201,7 +225,9 @@ def fit_kind(data: TrainingData, box: Box, *, train: np.ndarray | None = None,
     sel = (~data.holdout if train is None else train) & ok
     fmean = kf[sel].mean(axis=0)
     fstd = kf[sel].std(axis=0) + 1e-12
-    x = model_inputs(box, data.groups[sel], kf[sel], fmean, fstd)
+    end = end_column(data)
+    x = model_inputs(box, data.groups[sel], kf[sel], fmean, fstd,
+                     None if end is None else end[sel])
     nq = len(QUANTITIES[data.kind])
     y = data.y[sel].reshape(int(sel.sum()), -1)
     mask = np.repeat(data.mask[sel], nq, axis=1)
@@ -233,7 +259,9 @@ def fit_pressure(data: TrainingData, box: Box, fmean: np.ndarray, fstd: np.ndarr
     kf = kind_features(data.kind, data.features, _tilts(data))
     ok = np.all(np.isfinite(kf), axis=1)
     sel = (~data.holdout if train is None else train) & ok
-    x = model_inputs(box, data.groups[sel], kf[sel], fmean, fstd)
+    end = end_column(data)
+    x = model_inputs(box, data.groups[sel], kf[sel], fmean, fstd,
+                     None if end is None else end[sel])
     y = data.y[sel][:, :, 0]
     mask = data.mask[sel] & np.isfinite(y)
     reach = mask.mean(axis=0)
@@ -256,9 +284,11 @@ def fit_anchors(data: TrainingData, box: Box, fmean: np.ndarray, fstd: np.ndarra
     ok = np.all(np.isfinite(kf), axis=1)
     sel = (~data.holdout if train is None else train) & ok
     out = {}
+    end = end_column(data)
     for j, name in enumerate(ANCHORS):
         rows = sel & np.isfinite(data.anchors[:, j])
-        x = model_inputs(box, data.groups[rows], kf[rows], fmean, fstd)
+        x = model_inputs(box, data.groups[rows], kf[rows], fmean, fstd,
+                         None if end is None else end[rows])
         y = data.anchors[rows, j:j + 1]
         out[name] = fit_gp(x, y, np.ones_like(y, bool), restarts=restarts)
     return out
@@ -356,7 +386,7 @@ def _fit_one(kind: str, data: TrainingData, prefix: str, arrays: dict[str, np.nd
     """Fit one kind's GP on ``data`` and store it under ``prefix`` (unless too few designs)."""
     train = ~data.holdout & np.all(np.isfinite(kind_features(
         kind, data.features, _tilts(data))), axis=1)
-    n_inputs = len(GROUP_NAMES[kind]) + 3
+    n_inputs = len(GROUP_NAMES[kind]) + 3 + (end_column(data) is not None)
     if train.sum() < MIN_DESIGNS_PER_INPUT * n_inputs:
         _log(f"{kind}: only {int(train.sum())} training designs for {n_inputs} inputs "
              f"(at least {MIN_DESIGNS_PER_INPUT * n_inputs}); not fitted")
@@ -372,6 +402,8 @@ def _fit_one(kind: str, data: TrainingData, prefix: str, arrays: dict[str, np.nd
         arrays.update(agp.to_arrays(f"{p}anchor_{name}/"))
     arrays[f"{p}feature_mean"] = fmean
     arrays[f"{p}feature_std"] = fstd
+    if end_column(data) is not None:
+        arrays[f"{p}end_input"] = np.array([1.0])   # predict as mirror ends
     arrays[f"{p}box_low"] = box.low
     arrays[f"{p}box_high"] = box.high
     manifest[kind] = {
@@ -380,6 +412,8 @@ def _fit_one(kind: str, data: TrainingData, prefix: str, arrays: dict[str, np.nd
         "pressure_length_scales": pgp.length.round(4).tolist(),
         "noise": gp.noise, "groups": list(GROUP_NAMES[kind]),
         "features": "emulated" if prefix else "ritz",
+        "end_input": ("plate 0, mirror 1; predicted at 1" if end_column(data) is not None
+                      else None),
         "anchors": {name: {"training_designs": len(agp.x),
                            "length_scales": agp.length.round(4).tolist(), "noise": agp.noise}
                     for name, agp in anchors.items()},

@@ -74,6 +74,9 @@ class _Kind:
     #: log(P/μ) on the grid with a kernel of its own (``_fit.fit_pressure``); None in an
     #: older model file (the path GP's pressure then)
     pressure: MultiOutputGP | None = None
+    #: the GPs take the end condition as an input (``_fit.end_column``): the value the
+    #: model predicts at (1.0, mirror ends: the cell as inside a module); None: no such input
+    end_input: float | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -113,9 +116,12 @@ class CalibratedModel:
                            for name in ANCHORS if f"{p}anchor_{name}/x" in arrays}
                 pressure = (MultiOutputGP.from_arrays(arrays, f"{p}pressure/")
                             if f"{p}pressure/x" in arrays else None)
+                end = (float(np.asarray(arrays[f"{p}end_input"])[0])
+                       if f"{p}end_input" in arrays else None)
                 into[kind] = _Kind(kind, MultiOutputGP.from_arrays(arrays, p), box,
                                    np.asarray(arrays[f"{p}feature_mean"]),
-                                   np.asarray(arrays[f"{p}feature_std"]), anchors, pressure)
+                                   np.asarray(arrays[f"{p}feature_std"]), anchors, pressure,
+                                   end)
         #: the tilted cells' calibrated strip-shear factor on the Ritz rule (``_shear``)
         self.twisting_shear: dict[str, Any] | None = manifest.get("twisting_shear")
         self.emulators = {fam: MultiOutputGP.from_arrays(arrays, f"emulator/{fam}/")
@@ -201,7 +207,7 @@ class CalibratedModel:
         # answered like a cell outside the box (see responses)
         inside &= np.all(np.isfinite(kf), axis=1)
         kf = np.where(np.isfinite(kf), kf, k.fmean)
-        x = model_inputs(k.box, groups, kf, k.fmean, k.fstd)
+        x = model_inputs(k.box, groups, kf, k.fmean, k.fstd, k.end_input)
         ks = matern52(x, k.gp.x, k.gp.length)
         lin = np.column_stack([np.ones(len(x)), x]) @ k.gp.coef
         mean = lin + (ks @ k.gp.weights) * k.gp.scale

@@ -63,13 +63,39 @@ def unseen_designs(manifest: dict[str, Any], kind: str, set_name: str, design: n
     return np.asarray(holdout, bool)
 
 
+def at_end_of(model: Any, kind: str, set_name: str) -> tuple[Any, float | None]:
+    """The model predicting at the end condition of ``set_name``'s cells, and that end
+    input (None: the kind has no end input). A kind fitted on plate-ended and mirror-ended
+    sets (``_fit.end_column``) answers every command as mirror-ended (1, the cell inside a
+    module); a plate-ended set is checked on its own level (0), which shows the fit of
+    both levels; its distance from the mirror level is the plate's stiffening."""
+    import copy
+    from dataclasses import replace
+
+    from multimorph.calibrated._dataset import reference_spec
+
+    k = model.kinds.get(kind)
+    if k is None or k.end_input is None:
+        return model, None
+    end = 1.0 if reference_spec(set_name).options.get("end") == "mirror" else 0.0
+    if end == k.end_input:
+        return model, end
+    other = copy.copy(model)
+    other.kinds = {**model.kinds, kind: replace(k, end_input=end)}
+    if kind in model.fast_kinds and model.fast_kinds[kind].end_input is not None:
+        other.fast_kinds = {**model.fast_kinds,
+                            kind: replace(model.fast_kinds[kind], end_input=end)}
+    return other, end
+
+
 def evaluate(kind: str, set_name: str) -> dict[str, Any]:
-    """Model and Ritz against FE on the held-out designs of ``set_name``."""
+    """Model and Ritz against FE on the held-out designs of ``set_name`` (the model at
+    the set's end condition, :func:`at_end_of`)."""
     from multimorph.calibrated import CalibrationWarning, load_model
     from multimorph.models import batch_model
 
     data = fe_training_data(kind, set_names=(set_name,), ritz=False)
-    model = load_model()
+    model, _end = at_end_of(load_model(), kind, set_name)
     unseen = unseen_designs(model.manifest, kind, set_name, data.design, data.holdout)
     rows = np.flatnonzero(unseen)
     ritz = batch_model("ritz")
