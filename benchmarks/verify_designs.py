@@ -98,7 +98,10 @@ def publish(name: str) -> list[Path]:
     lines = [f"# FE-verified design of examples/target_{name}.toml (issue 19).",
              f"# Designed on the {r.get('model')} cell model (seed {r.get('seed')}), then "
              f"checked in 3D FE: route {r.get('fe_route')}"
-             + (f", twisting modules by {r.get('fe_twist')}" if r.get("fe_twist") else "")
+             + (f", twisting modules by {r.get('fe_twist')}"
+                if r.get("fe_twist") and any(st.get("kind") == "twist" for rd in
+                                             r.get("fe_rounds", [])
+                                             for st in rd.get("stages", [])) else "")
              + f"; {len(rounds)} FE round(s). Per stage, wanted / model / FE "
              "(benchmarks/verify_designs.py):"]
     last = rounds[-1] if rounds else None

@@ -17,10 +17,12 @@ EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 
 def test_a_module_joined_at_its_end_has_a_plate_there_and_a_tip_is_free() -> None:
-    # jar lifter: the stalk at the base carries the seal; the seal's end is the tip
+    # jar lifter (the FE-verified design, stop 33): the sealer at the base carries the
+    # lifter; the lifter's end is the tip
     jar = device_from_spec(load_toml(EXAMPLES / "jar_lifter.toml"))
-    assert module_end(jar, "stalk") == "plate"
-    assert module_end(jar, "seal") == "free"
+    assert [m.name for m in jar.modules] == ["sealer", "lifter"]
+    assert module_end(jar, "sealer") == "plate"
+    assert module_end(jar, "lifter") == "free"
     # gripper: the fingers' hub sits at the twister's end; each finger's tip is free
     gripper = device_from_spec(load_toml(EXAMPLES / "gripper.toml"))
     assert module_end(gripper, "twister") == "plate"

