@@ -322,7 +322,7 @@ def simulate_cases() -> Iterator[Case]:
                     ((name, sub(src, old, new).encode()),))
 
     pm = 'pmax = "60 kPa"'
-    yield case("missing-key", "device-pmax", '\npmax = "245 kPa"      # P/mu = 1', "",
+    yield case("missing-key", "device-pmax", '\npmax = "180 kPa"', "",
                "device.pmax", src=jar)
     yield case("sign", "pmax-negative", pm, 'pmax = "-60 kPa"', "device.pmax")
     yield case("units", "pmax-length", pm, 'pmax = "60 mm"', "device.pmax")
@@ -362,8 +362,8 @@ def simulate_cases() -> Iterator[Case]:
     yield case("sign", "strips-zero", "strips = 3", "strips = 0", "strips")
     yield case("unknown-key", "duplicate-module", 'name = "fingers"', 'name = "twister"',
                "twister")
-    yield case("geometry", "stretching-asymmetric", 'bottom_wall = "0.5 mm"\nside_wall = '
-               '"0.4 mm"', 'bottom_wall = "0.6 mm"\nside_wall = "0.4 mm"', "seal", src=jar)
+    yield case("geometry", "stretching-asymmetric", 'bottom_wall = "1.07 mm"\nside_wall = '
+               '"1.61 mm"', 'bottom_wall = "1.2 mm"\nside_wall = "1.61 mm"', "sealer", src=jar)
     body = text.split("[[module]]")[0]
     yield Case(f"{cmd}/missing-key/modules", cmd, "missing-key", argv, "module",
                ((name, body.encode()),))
