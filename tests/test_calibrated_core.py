@@ -182,3 +182,26 @@ def test_an_anchor_beyond_the_path_or_far_from_its_reading_is_not_used() -> None
                                                   critical_kind=None, hardening=None))
     ch, info = anchored_characteristic(short, 0.9, 1.0)
     assert ch.critical == 0.9 and ch.hardening == 1.0 and ch.critical_kind == "max_slope"
+
+
+def test_the_tilted_cells_straight_features_read_the_bending_prediction() -> None:
+    """The twisting kind's inputs from its straight cell (``_fit.STRAIGHT_FEATURES``): log P
+    of the bending kind's grid prediction at t = 0.25 and 0.75, and its Pc anchor; none
+    for a straight cell outside the bending support."""
+    from types import SimpleNamespace
+
+    from multimorph.calibrated._fit import STRAIGHT_T, kind_features, straight_features
+
+    values = np.zeros((2, len(T_GRID), 4))
+    values[:, :, 0] = np.array([1.0, 2.0])[:, None] * T_GRID[None, :]   # log P = a t
+    pred = SimpleNamespace(values=values, anchors=np.array([[-3.0, -2.5], [-2.0, -1.5]]),
+                           inside=np.array([True, False]))
+    f = straight_features(pred)
+    np.testing.assert_allclose(f[0], [STRAIGHT_T[0], STRAIGHT_T[1], -3.0])
+    assert np.all(np.isnan(f[1]))
+    ritz = np.array([[0.1, 0.2, 0.3, 0.4], [0.1, 0.2, 0.3, 0.4]])
+    tilt = np.array([math.pi / 4, math.pi / 12])
+    kf = kind_features("twisting", ritz, tilt, f)
+    assert kf.shape == (2, 4)
+    np.testing.assert_allclose(kf[:, 3], 0.4 * np.sin(2 * tilt))   # the Ritz shear rule
+    assert kind_features("twisting", ritz, tilt).shape == (2, 3)    # Ritz pressures alone

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from multimorph.calibrated import load_model
-from multimorph.calibrated._shear import fit_shear_factor, shear_factor
+from multimorph.calibrated._shear import fit_shear_factor, plate_level, shear_factor
 from multimorph.geometry import CellGeometry, TiltedCell
 from multimorph.io import load_toml
 
@@ -59,8 +59,8 @@ def test_the_shipped_factor_scales_the_shear_and_leaves_pc_ph_alone() -> None:
     bare = copy.copy(model)
     bare.twisting_shear = None
     cell = _tilted(30.0)
-    r = model.response(cell, 3e5)
-    r0 = bare.response(cell, 3e5)
+    r = model.tilted_by_straight([cell], 3e5)[0]
+    r0 = bare.tilted_by_straight([cell], 3e5)[0]
     c = r.meta["calibration"]["shear_factor"]
     assert 0.2 < c < 1.0
     lo, hi = r.meta["calibration"]["shear_factor_range"]
@@ -69,3 +69,23 @@ def test_the_shipped_factor_scales_the_shear_and_leaves_pc_ph_alone() -> None:
     assert r.characteristic.critical == pytest.approx(r0.characteristic.critical)
     assert r.characteristic.hardening == pytest.approx(r0.characteristic.hardening)
     assert "factor calibrated on" in r.meta["calibration"]["twisting"]
+
+
+def test_a_tilted_cell_is_read_on_its_straight_cell_at_the_plate_level() -> None:
+    """The tilted FE cells, and the device FE check's twisting modules, are one cell with
+    its far end tied to a plate: the straight cell standing for a tilted one is the bending
+    kind's plate level (stop 34), not the level of a cell inside a bending module."""
+    model = load_model()
+    if model.kinds["bending"].end_input is None:
+        pytest.skip("the shipped bending kind has no end input")
+    cell = _tilted(30.0)
+    r = model.tilted_by_straight([cell], 3e5)[0]
+    plate = plate_level(model).response(cell.cell, 3e5)
+    mirror = model.response(cell.cell, 3e5)
+    assert np.allclose(r.path.pressure, plate.path.pressure)
+    assert "plate level" in r.meta["calibration"]["twisting"]
+    # the plate stiffens the cell: the plate level's pressure at a given volume is higher
+    v = np.linspace(2.0, 8.0, 7) * plate.path.volume[0]
+    p_plate = np.interp(v, plate.path.volume, plate.path.pressure)
+    p_mirror = np.interp(v, mirror.path.volume, mirror.path.pressure)
+    assert np.median(p_plate / p_mirror) > 1.0

@@ -141,7 +141,11 @@ def batch_model(name: str | None = None, *, fallback: bool = True,
             out: dict[str, Any] = {kind: k.box
                                    for kind, k in (m.fast_kinds if fast else m.kinds).items()}
             shear = m.twisting_shear or {}
-            if "tilt_range" in shear:   # tilts the strip shear factor was fitted on
+            tw = out.get("twisting")
+            if tw is not None and "tilt" in tw.names:   # the tilted cells' own calibration
+                j = tw.names.index("tilt")
+                out["tilt"] = (float(tw.low[j]), float(tw.high[j]))
+            elif "tilt_range" in shear:   # tilts the strip shear factor was fitted on
                 out["tilt"] = tuple(float(t) for t in shear["tilt_range"])
             return out
 

@@ -49,7 +49,8 @@ from multimorph.calibrated._representation import QUANTITIES, T_GRID, grid_value
 from multimorph.calibrated._ritz import ritz_features
 
 __all__ = ["ANCHORS", "KIND_SETS", "MODEL_FILE", "TrainingData", "fe_training_data",
-           "fit_anchors", "fit_and_save", "fit_pressure", "model_inputs", "twin_set"]
+           "fit_anchors", "fit_and_save", "fit_pressure", "model_inputs",
+           "straight_features", "twin_set"]
 
 MODEL_FILE = DATA_DIR / "model.npz"
 MODEL_MANIFEST = DATA_DIR / "model.json"
@@ -79,16 +80,47 @@ def _log(msg: str) -> None:
     print(f"[calibrate] {msg}", file=sys.stderr, flush=True)
 
 
-def kind_features(kind: str, feats: np.ndarray, tilt: np.ndarray | None = None) -> np.ndarray:
-    """The Ritz features a kind's GP takes (n, 3): log P at t = 0.25 and 0.75 and the
-    signal over t at t = 0.25 (tilted cells: the mid-height strain times sin 2|β|)."""
+def kind_features(kind: str, feats: np.ndarray, tilt: np.ndarray | None = None,
+                  straight: np.ndarray | None = None) -> np.ndarray:
+    """The features a kind's GP takes: log P at t = 0.25 and 0.75 and the signal over t at
+    t = 0.25 of the Ritz model (n, 3; tilted cells: the mid-height strain times sin 2|β|).
+    Tilted cells with ``straight`` (n, 3; :data:`STRAIGHT_FEATURES`, read off the fitted
+    bending kind) take those in place of the Ritz pressures (n, 4)."""
     feats = np.atleast_2d(feats)
     if kind == "twisting":
         assert tilt is not None
         sig = feats[:, 3] * np.sin(2.0 * np.abs(np.asarray(tilt, float)))
+        if straight is not None:
+            return np.column_stack([np.atleast_2d(straight), sig])
     else:
         sig = feats[:, 2]
     return np.column_stack([feats[:, 0], feats[:, 1], sig])
+
+
+#: The tilted cells' features from their straight cell (since stop 34): the calibrated
+#: bending kind's log(P/μ) at t = 0.25 and 0.75 and its log(Pc/μ) anchor. A tilted cell
+#: balloons much as its straight cell does, 10 % stiffer at a given volume (median, more
+#: at larger tilts, docs/validation.md §3): the calibrated straight cell is a far better
+#: low-fidelity input than the Ritz model (5-fold cross-validation on 66 tilted cells:
+#: log P at t = 0.66 within 5.1 / 14.1 % median / p90 against 10.0 / 28.2 % on Ritz
+#: features). The straight cell is read at the plate level (``straight_end`` 0): the
+#: tilted FE cells, and the device FE check's twisting modules, are one tilted cell with
+#: its far end tied to a plate (there is no mirror-ended tilted FE: PlaneTie turns about
+#: x only).
+STRAIGHT_FEATURES = ("log_p_straight_t025", "log_p_straight_t075", "log_pc_straight")
+STRAIGHT_T = (0.25, 0.75)
+
+
+def straight_features(grid_prediction: Any) -> np.ndarray:
+    """:data:`STRAIGHT_FEATURES` (n, 3) of a bending-kind grid prediction (NaN where the
+    straight cell is outside its support)."""
+    lp = grid_prediction.values[:, :, 0]
+    out = np.column_stack([np.array([np.interp(t, T_GRID, row) for row in lp])
+                           for t in STRAIGHT_T]
+                          + [grid_prediction.anchors[:, 0] if grid_prediction.anchors
+                             is not None else np.full(len(lp), np.nan)])
+    out[~np.asarray(grid_prediction.inside, bool)] = np.nan
+    return out
 
 
 def model_inputs(box: Box, groups: np.ndarray, kfeats: np.ndarray, fmean: np.ndarray,
@@ -136,6 +168,9 @@ class TrainingData:
     anchors: np.ndarray | None = None
     #: the end condition of each design's set: 1.0 mirror ends, 0.0 a plate (or free)
     end: np.ndarray | None = None
+    #: tilted cells: their straight cell's :data:`STRAIGHT_FEATURES` at their end level
+    #: (None: the twisting kind takes Ritz features)
+    straight: np.ndarray | None = None
 
 
 def fe_signal(kind: str, path: dict[str, np.ndarray], n_cells: int) -> np.ndarray:
@@ -216,11 +251,16 @@ def _tilts(data: TrainingData) -> np.ndarray | None:
     return np.array([abs(c.tilt) for c in data.cells])
 
 
+def data_features(data: TrainingData) -> np.ndarray:
+    """The GP features of the training designs (:func:`kind_features`)."""
+    return kind_features(data.kind, data.features, _tilts(data), data.straight)
+
+
 def fit_kind(data: TrainingData, box: Box, *, train: np.ndarray | None = None,
              restarts: int = 2) -> tuple[MultiOutputGP, np.ndarray, np.ndarray]:
     """The FE GP of one kind on the rows ``train`` (default: not held out, features
     finite); returns (gp, feature mean, feature std)."""
-    kf = kind_features(data.kind, data.features, _tilts(data))
+    kf = data_features(data)
     ok = np.all(np.isfinite(kf), axis=1)
     sel = (~data.holdout if train is None else train) & ok
     fmean = kf[sel].mean(axis=0)
@@ -256,7 +296,7 @@ def fit_pressure(data: TrainingData, box: Box, fmean: np.ndarray, fstd: np.ndarr
     takes longer length scales, and its held-out error on the ballooning plateau
     (0.4 ≤ t ≤ 2.5) falls by about 40 % (bending: mean |Δ log P| 0.050 → 0.030;
     stretching: 0.033 → 0.019)."""
-    kf = kind_features(data.kind, data.features, _tilts(data))
+    kf = data_features(data)
     ok = np.all(np.isfinite(kf), axis=1)
     sel = (~data.holdout if train is None else train) & ok
     end = end_column(data)
@@ -280,7 +320,7 @@ def fit_anchors(data: TrainingData, box: Box, fmean: np.ndarray, fstd: np.ndarra
     """One scalar GP per anchor (log Pc/μ, log Ph/μ of FE), each with its own kernel, on
     the rows ``train`` (default: not held out) that have the anchor and finite features."""
     assert data.anchors is not None
-    kf = kind_features(data.kind, data.features, _tilts(data))
+    kf = data_features(data)
     ok = np.all(np.isfinite(kf), axis=1)
     sel = (~data.holdout if train is None else train) & ok
     out = {}
@@ -384,9 +424,9 @@ def emulated_features(emu: MultiOutputGP, box: Box, cells: list[Any],
 def _fit_one(kind: str, data: TrainingData, prefix: str, arrays: dict[str, np.ndarray],
              manifest: dict[str, Any]) -> None:
     """Fit one kind's GP on ``data`` and store it under ``prefix`` (unless too few designs)."""
-    train = ~data.holdout & np.all(np.isfinite(kind_features(
-        kind, data.features, _tilts(data))), axis=1)
-    n_inputs = len(GROUP_NAMES[kind]) + 3 + (end_column(data) is not None)
+    kf = data_features(data)
+    train = ~data.holdout & np.all(np.isfinite(kf), axis=1)
+    n_inputs = len(GROUP_NAMES[kind]) + kf.shape[1] + (end_column(data) is not None)
     if train.sum() < MIN_DESIGNS_PER_INPUT * n_inputs:
         _log(f"{kind}: only {int(train.sum())} training designs for {n_inputs} inputs "
              f"(at least {MIN_DESIGNS_PER_INPUT * n_inputs}); not fitted")
@@ -404,6 +444,8 @@ def _fit_one(kind: str, data: TrainingData, prefix: str, arrays: dict[str, np.nd
     arrays[f"{p}feature_std"] = fstd
     if end_column(data) is not None:
         arrays[f"{p}end_input"] = np.array([1.0])   # predict as mirror ends
+    if data.straight is not None:
+        arrays[f"{p}straight_end"] = np.array([0.0])  # plate: as the tilted FE cells
     arrays[f"{p}box_low"] = box.low
     arrays[f"{p}box_high"] = box.high
     manifest[kind] = {
@@ -411,7 +453,10 @@ def _fit_one(kind: str, data: TrainingData, prefix: str, arrays: dict[str, np.nd
         "held_out": int(data.holdout.sum()), "length_scales": gp.length.round(4).tolist(),
         "pressure_length_scales": pgp.length.round(4).tolist(),
         "noise": gp.noise, "groups": list(GROUP_NAMES[kind]),
-        "features": "emulated" if prefix else "ritz",
+        "features": ("emulated" if prefix else "ritz") if data.straight is None else (
+            "the straight cell's calibrated " + ", ".join(STRAIGHT_FEATURES)
+            + " (plate level) and the "
+            + ("emulated" if prefix else "Ritz") + " strip-shear rule"),
         "end_input": ("plate 0, mirror 1; predicted at 1" if end_column(data) is not None
                       else None),
         "anchors": {name: {"training_designs": len(agp.x),
@@ -422,7 +467,7 @@ def _fit_one(kind: str, data: TrainingData, prefix: str, arrays: dict[str, np.nd
     _log(f"{kind}{' (fast)' if prefix else ''}: fitted on {int(train.sum())} designs")
 
 
-def fit_and_save(*, emulators: bool = False) -> None:
+def fit_and_save(*, emulators: bool = False, kinds: tuple[str, ...] | None = None) -> None:
     """Fit every kind from the shipped data; write model.npz and model.json.
 
     The model ("calibrated") computes every cell's Ritz features with the Ritz model at run
@@ -430,34 +475,52 @@ def fit_and_save(*, emulators: bool = False) -> None:
     With ``emulators``, the Ritz-feature emulators are fitted on the Ritz table and every
     kind is fitted a second time on emulated features: the fast variant
     ("calibrated-fast": no Ritz trace, less accurate where the emulator is off).
+
+    ``kinds``: refit only these kinds into the shipped model, keeping the others and its
+    emulators (the twisting kind reads the bending kind, so refitting bending refits it).
     """
     from multimorph._provenance import code_version
 
     t0 = time.monotonic()
     sets = load_reference()
-    table: dict[str, dict[str, np.ndarray]] = {}
-    if emulators:
-        from multimorph.calibrated._ritz_table import load_ritz_table
-
-        table = load_ritz_table()
     arrays: dict[str, np.ndarray] = {"t_grid": T_GRID}
     manifest: dict[str, Any] = {"format": "multimorph-calibrated-model/1",
                                 "code_version": code_version(), "kinds": {},
-                                "emulators": {}}
+                                "emulators": {}, "fast_kinds": {}}
     emus: dict[str, tuple[MultiOutputGP, Box]] = {}
-    for family, tab in table.items():
-        box = Box.from_spec(family, reference_spec(family))
-        emu, accuracy = fit_emulator(family, tab, box)
-        emus[family] = (emu, box)
-        arrays.update(emu.to_arrays(f"emulator/{family}/"))
-        manifest["emulators"][family] = {"designs": len(emu.x), "outputs": list(EMULATOR_OUTPUTS),
-                                         "length_scales": emu.length.round(4).tolist(),
-                                         "test_error": accuracy}
-        _log(f"emulator {family}: {len(emu.x)} Ritz designs; test error (median, p90): "
-             + ", ".join(f"{k} {v['median']:.3g} {v['p90']:.3g}" for k, v in accuracy.items()
-                         if v.get("n")))
-    manifest["fast_kinds"] = {}
-    for kind in KIND_SETS:
+    todo = tuple(KIND_SETS)
+    if kinds is not None:
+        unknown = sorted(set(kinds) - set(KIND_SETS))
+        if unknown:
+            raise ValueError(f"fit model --kinds: unknown kind(s) {unknown}; expected some "
+                             f"of {list(KIND_SETS)}")
+        todo = tuple(k for k in KIND_SETS if k in kinds
+                     or (k == "twisting" and "bending" in kinds))
+        with np.load(MODEL_FILE, allow_pickle=False) as z:
+            arrays = {k: z[k] for k in z.files
+                      if not any(k.startswith((f"{kd}/", f"fast/{kd}/")) for kd in todo)}
+        manifest = json.loads(MODEL_MANIFEST.read_text())
+        manifest["code_version"] = code_version()
+        for key in ("kinds", "fast_kinds"):
+            manifest[key] = {k: v for k, v in manifest.get(key, {}).items() if k not in todo}
+        for family in manifest.get("emulators", {}):
+            emus[family] = (MultiOutputGP.from_arrays(arrays, f"emulator/{family}/"),
+                            Box.from_spec(family, reference_spec(family)))
+    elif emulators:
+        from multimorph.calibrated._ritz_table import load_ritz_table
+
+        for family, tab in load_ritz_table().items():
+            box = Box.from_spec(family, reference_spec(family))
+            emu, accuracy = fit_emulator(family, tab, box)
+            emus[family] = (emu, box)
+            arrays.update(emu.to_arrays(f"emulator/{family}/"))
+            manifest["emulators"][family] = {
+                "designs": len(emu.x), "outputs": list(EMULATOR_OUTPUTS),
+                "length_scales": emu.length.round(4).tolist(), "test_error": accuracy}
+            _log(f"emulator {family}: {len(emu.x)} Ritz designs; test error (median, p90): "
+                 + ", ".join(f"{k} {v['median']:.3g} {v['p90']:.3g}"
+                             for k, v in accuracy.items() if v.get("n")))
+    for kind in todo:
         if not any(s in sets for s in KIND_SETS[kind]):
             continue
         data = fe_training_data(kind, sets)
@@ -468,6 +531,9 @@ def fit_and_save(*, emulators: bool = False) -> None:
             variants.append(("fast/", replace(data, features=emulated_features(
                 *emus[FAMILY[kind]], data.cells, data.features))))
         for prefix, d in variants:
+            if kind == "twisting" and "bending" in manifest["fast_kinds" if prefix
+                                                            else "kinds"]:
+                d = replace(d, straight=_straight_of(arrays, manifest, d, bool(prefix)))
             _fit_one(kind, d, prefix, arrays,
                      manifest["fast_kinds" if prefix else "kinds"])
     manifest["fit_time_s"] = round(time.monotonic() - t0, 1)
@@ -476,6 +542,22 @@ def fit_and_save(*, emulators: bool = False) -> None:
     os.replace(tmp, MODEL_FILE)
     MODEL_MANIFEST.write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
     _log(f"wrote {MODEL_FILE} in {manifest['fit_time_s']} s")
+
+
+def _straight_of(arrays: dict[str, np.ndarray], manifest: dict[str, Any],
+                 data: TrainingData, fast: bool) -> np.ndarray:
+    """The tilted training cells' :data:`STRAIGHT_FEATURES` from the bending kind fitted
+    so far (``fast``: its fast variant), each at its own set's end level."""
+    from multimorph.calibrated._model import CalibratedModel
+
+    model = CalibratedModel(arrays, {k: v for k, v in manifest.items()
+                                     if k in ("kinds", "fast_kinds", "emulators")})
+    ends = data.end if data.end is not None else np.zeros(len(data.cells))
+    out = np.full((len(data.cells), len(STRAIGHT_FEATURES)), np.nan)
+    for end in np.unique(ends):
+        rows = np.flatnonzero(ends == end)
+        out[rows] = model.straight_features([data.cells[i] for i in rows], float(end), fast)
+    return out
 
 
 def finite_log(x: float) -> float:

@@ -16,6 +16,7 @@ uncertainty: the GP's predictive standard deviation of log P, turned into a rang
 
 from __future__ import annotations
 
+import copy
 import json
 import math
 import warnings
@@ -77,6 +78,9 @@ class _Kind:
     #: the GPs take the end condition as an input (``_fit.end_column``): the value the
     #: model predicts at (1.0, mirror ends: the cell as inside a module); None: no such input
     end_input: float | None = None
+    #: tilted cells on their straight cell's features (``_fit.STRAIGHT_FEATURES``): the end
+    #: level the straight cell is read at (0.0: plate, as the tilted FE); None: Ritz features
+    straight_end: float | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -116,12 +120,13 @@ class CalibratedModel:
                            for name in ANCHORS if f"{p}anchor_{name}/x" in arrays}
                 pressure = (MultiOutputGP.from_arrays(arrays, f"{p}pressure/")
                             if f"{p}pressure/x" in arrays else None)
-                end = (float(np.asarray(arrays[f"{p}end_input"])[0])
-                       if f"{p}end_input" in arrays else None)
+                end, straight_end = (float(np.asarray(arrays[f"{p}{name}"])[0])
+                                     if f"{p}{name}" in arrays else None
+                                     for name in ("end_input", "straight_end"))
                 into[kind] = _Kind(kind, MultiOutputGP.from_arrays(arrays, p), box,
                                    np.asarray(arrays[f"{p}feature_mean"]),
                                    np.asarray(arrays[f"{p}feature_std"]), anchors, pressure,
-                                   end)
+                                   end, straight_end)
         #: the tilted cells' calibrated strip-shear factor on the Ritz rule (``_shear``)
         self.twisting_shear: dict[str, Any] | None = manifest.get("twisting_shear")
         self.emulators = {fam: MultiOutputGP.from_arrays(arrays, f"emulator/{fam}/")
@@ -178,7 +183,28 @@ class CalibratedModel:
             feats[~emulable] = exact
             p_end[~emulable] = np.where(np.isfinite(pcs), DATA_PMAX_FACTOR * pcs, np.inf)
         tilts = (np.array([abs(c.tilt) for c in cells]) if kind == "twisting" else None)
-        return kind_features(kind, feats, tilts), p_end
+        straight = None
+        k = (self.fast_kinds if fast else self.kinds).get(kind)
+        if k is not None and k.straight_end is not None:
+            straight = self.straight_features(cells, k.straight_end, fast)
+        return kind_features(kind, feats, tilts, straight), p_end
+
+    def straight_features(self, cells: Sequence[CellGeometry | TiltedCell], end: float,
+                          fast: bool = False) -> np.ndarray:
+        """The tilted cells' :data:`~._fit.STRAIGHT_FEATURES` (n, 3): their straight
+        cells' bending-kind prediction at the end level ``end`` (NaN outside its box)."""
+        from multimorph.calibrated._fit import straight_features
+
+        kinds = self.fast_kinds if fast else self.kinds
+        b = kinds["bending"]
+        straight = [c.cell if isinstance(c, TiltedCell) else c for c in cells]
+        if b.end_input is not None and b.end_input != end:
+            other = copy.copy(self)
+            kinds = {**kinds, "bending": replace(b, end_input=float(end))}
+            other.kinds, other.fast_kinds = ((self.kinds, kinds) if fast
+                                             else (kinds, self.fast_kinds))
+            return straight_features(other.grid(straight, fast=fast))
+        return straight_features(self.grid(straight, fast=fast))
 
     # ------------------------------------------------------------------ grid
     def grid(self, cells: Sequence[CellGeometry | TiltedCell], *,
@@ -260,15 +286,10 @@ class CalibratedModel:
             by_kind.setdefault(kind_of(c), []).append(i)
         for kind, idx in by_kind.items():
             if kind == "twisting" and kind not in kinds:
-                # no tilted-cell path calibration: the straight cell's calibrated response,
-                # read on the strip shear of the Ritz rule γ = ε sin 2β times the factor
-                # calibrated on the tilted FE cells (``_shear``)
-                straight = self.responses([cells[i].cell for i in idx],  # type: ignore[union-attr]
-                                          p_max, fallback=fallback, fast=fast)
-                for i, r in zip(idx, straight, strict=True):
-                    out[i] = (r if isinstance(r, Exception)
-                              else _straight_for_tilted(r, cells[i],  # type: ignore[arg-type]
-                                                        self.twisting_shear))
+                for i, r in zip(idx, self.tilted_by_straight(
+                        [cells[i] for i in idx], p_max,  # type: ignore[misc]
+                        fallback=fallback, fast=fast), strict=True):
+                    out[i] = r
                 continue
             if kind not in kinds:
                 for i in idx:
@@ -295,6 +316,23 @@ class CalibratedModel:
                 except Exception as exc:  # kept per design, as other batch models do
                     out[i] = exc
         return out
+
+    def tilted_by_straight(self, cells: Sequence[TiltedCell], p_max: float, *,
+                           fallback: bool = True, fast: bool = False,
+                           ) -> list[Response | Exception]:
+        """Tilted cells answered without a tilted-cell calibration (a model without a
+        twisting kind): the straight cell's calibrated response, read on the strip shear of
+        the Ritz rule γ = ε sin 2β times the factor calibrated on the tilted FE cells
+        (``_shear``). The straight cell is read at the plate level (since stop 34;
+        :func:`._shear.plate_level`): a tilted cell is calibrated, and checked in the device
+        FE, as one cell with its far end tied to a plate."""
+        from multimorph.calibrated._shear import plate_level
+
+        straight = plate_level(self).responses([c.cell for c in cells], p_max,
+                                               fallback=fallback, fast=fast)
+        return [r if isinstance(r, Exception) else _straight_for_tilted(r, c,
+                                                                        self.twisting_shear)
+                for c, r in zip(cells, straight, strict=True)]
 
     def response(self, cell: CellGeometry | TiltedCell, p_max: float) -> Response:
         """One cell's :class:`Response` (raises where it has none)."""
@@ -373,6 +411,12 @@ class CalibratedModel:
                     "data_pressure_end": p_data if math.isfinite(p_data) else None,
                     "reached_p_max": reached,
                     "model_version": self.manifest.get("code_version", "")}}
+        if pred.kind == "twisting":
+            k = (self.fast_kinds if fast else self.kinds)["twisting"]
+            meta["calibration"]["twisting"] = (
+                "calibrated on the tilted FE cells, on the straight cell's calibrated "
+                "response" + ("" if k.straight_end is None else
+                              f" (end level {k.straight_end:g})"))
         return resp.with_meta(**meta)
 
 
@@ -399,15 +443,16 @@ def _straight_for_tilted(r: Response, cell: TiltedCell,
                           break_stretch=c.material.break_stretch, signal="twist_rate")
     cal = dict(r.meta.get("calibration") or {})
     if shear_fit:
-        cal["twisting"] = ("the straight cell's calibrated response; the strip shear by the "
-                           "Ritz rule γ = ε sin 2β times a factor calibrated on "
+        cal["twisting"] = ("the straight cell's calibrated response (plate level); the strip "
+                           "shear by the Ritz rule γ = ε sin 2β times a factor calibrated on "
                            f"{shear_fit['training_designs']} tilted FE cells"
                            + ("" if inside else " (held at the edge of its tilts and Jm)"))
         cal["shear_factor"] = factor
         cal["shear_factor_range"] = [factor * math.exp(-sigma), factor * math.exp(sigma)]
     else:
-        cal["twisting"] = ("no FE calibration of tilted cells: the straight cell's response; "
-                           "the strip shear follows the Ritz rule γ = ε sin 2β")
+        cal["twisting"] = ("no FE calibration of tilted cells: the straight cell's response "
+                           "(plate level); the strip shear follows the Ritz rule "
+                           "γ = ε sin 2β")
     return resp.with_meta(**{**r.meta, "calibration": cal})
 
 

@@ -1,7 +1,7 @@
 """Fit the calibrated cell model (and compute what it needs) from the shipped data.
 
     python -m multimorph.calibrated.fit ritz-table [--samples 2048]   # Ritz features (resumable)
-    python -m multimorph.calibrated.fit model [--emulators]            # fit data/model.npz
+    python -m multimorph.calibrated.fit model [--emulators] [--kinds K ...]  # data/model.npz
     python -m multimorph.calibrated.fit twist-shear                    # tilted cells' shear factor
 
 The FE reference data set comes first (``python -m multimorph.calibrated.build_dataset``).
@@ -51,6 +51,9 @@ def main(argv: list[str] | None = None) -> int:
     md.add_argument("--emulators", action="store_true",
                     help="also emulate the Ritz features from the Ritz table (faster at run "
                          "time, less accurate); default: exact Ritz features at run time")
+    md.add_argument("--kinds", nargs="+", metavar="KIND",
+                    help="refit only these kinds (bending, stretching, twisting) into the "
+                         "shipped model, keeping the others and its emulators")
     sub.add_parser("twist-shear", help="fit the tilted cells' strip-shear factor on the "
                    "shipped model (also done by 'model')")
     args = ap.parse_args(argv)
@@ -64,7 +67,12 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     from multimorph.calibrated._fit import fit_and_save
 
-    fit_and_save(emulators=args.emulators)
+    try:
+        fit_and_save(emulators=args.emulators,
+                     kinds=tuple(args.kinds) if args.kinds else None)
+    except ValueError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
     fit_twist_shear()
     return 0
 

@@ -68,23 +68,37 @@ def at_end_of(model: Any, kind: str, set_name: str) -> tuple[Any, float | None]:
     input (None: the kind has no end input). A kind fitted on plate-ended and mirror-ended
     sets (``_fit.end_column``) answers every command as mirror-ended (1, the cell inside a
     module); a plate-ended set is checked on its own level (0), which shows the fit of
-    both levels; its distance from the mirror level is the plate's stiffening."""
+    both levels; its distance from the mirror level is the plate's stiffening. The
+    twisting kind reads its straight cell at an end level (``straight_end``): the
+    plate-ended tilted FE cells are checked with the straight cell at 0."""
     import copy
     from dataclasses import replace
 
     from multimorph.calibrated._dataset import reference_spec
 
     k = model.kinds.get(kind)
-    if k is None or k.end_input is None:
+    if k is None and kind == "twisting" and "bending" in model.kinds:
+        # tilted cells on their straight cell (``_model._straight_for_tilted``): its level
+        from multimorph.calibrated._shear import plate_level
+
+        b = model.kinds["bending"]
+        if b.end_input is None:
+            return model, None
+        if reference_spec(set_name).options.get("end") == "mirror":
+            return model, 1.0
+        return plate_level(model), 0.0
+    field = ("end_input" if k is not None and k.end_input is not None else
+             "straight_end" if k is not None and k.straight_end is not None else None)
+    if k is None or field is None:
         return model, None
     end = 1.0 if reference_spec(set_name).options.get("end") == "mirror" else 0.0
-    if end == k.end_input:
+    if end == getattr(k, field):
         return model, end
     other = copy.copy(model)
-    other.kinds = {**model.kinds, kind: replace(k, end_input=end)}
-    if kind in model.fast_kinds and model.fast_kinds[kind].end_input is not None:
+    other.kinds = {**model.kinds, kind: replace(k, **{field: end})}
+    if kind in model.fast_kinds and getattr(model.fast_kinds[kind], field) is not None:
         other.fast_kinds = {**model.fast_kinds,
-                            kind: replace(model.fast_kinds[kind], end_input=end)}
+                            kind: replace(model.fast_kinds[kind], **{field: end})}
     return other, end
 
 
