@@ -306,3 +306,30 @@ def test_fe_backend_one_design_per_task(tmp_path: Path) -> None:
     spec.write_text(text + "\n[sweep.options]\nmesh_size = 1\n")
     with pytest.raises(SpecError, match=r"sweep\.options: not an FE setting"):
         run_sweep(spec, tmp_path / "out2", scheduler="sync")
+
+
+def test_parts_with_an_extra_curve_on_shorter_paths_merge_on_one_point_axis(
+        tmp_path: Path) -> None:
+    """A curve that only some parts record (the tilted data set's strip shear in parts seeded
+    from the archive) may be shorter than the sweep's longest path: it is padded with NaN,
+    the merge does not fail (stop 34: the twisting set's final merge did)."""
+    spec = parse_sweep_spec(tomllib.loads(write_spec(tmp_path).read_text()))
+    table = spec.design_table()
+    store = SweepStore(tmp_path / "out", spec, table)
+    store.prepare()
+    i, j = [k for k, c in enumerate(table.cells) if c is not None][:2]
+
+    def record(m: int, **extra: Any) -> dict[str, Any]:
+        p = np.linspace(0.0, 1e4, m)
+        return {"status": "ok", "pressure": p, "curvature": p * 1e-3,
+                "peak_stretch": 1.0 + p * 1e-5, "stable": np.ones(m, bool), **extra}
+
+    store.write_part([i], [record(5, shear=np.linspace(0.0, 0.1, 5))])
+    store.write_part([j], [record(8)])
+    store.consolidate()
+    res = open_results(tmp_path / "out")
+    shear = res["curve_shear"].values
+    assert res["curve_pressure"].shape[1] == shear.shape[1] == 8
+    np.testing.assert_allclose(shear[i, :5], np.linspace(0.0, 0.1, 5))
+    assert np.all(np.isnan(shear[i, 5:])) and np.all(np.isnan(shear[j]))
+    np.testing.assert_allclose(res["curve_pressure"].values[j], np.linspace(0.0, 1e4, 8))

@@ -385,6 +385,16 @@ class SweepStore:
                     col[idx, :vals.shape[1]] = vals
                 else:
                     col[idx] = vals
+        # one point axis: a curve a part has only on shorter paths (an extra curve that
+        # only some parts record) is padded to the longest curve of the sweep
+        width = max((c.shape[1] for c in cols.values() if c.ndim == 2), default=0)
+        for name, col in list(cols.items()):
+            if col.ndim == 2 and col.shape[1] < width:
+                fill: Any = (False if col.dtype == bool else "" if col.dtype == object
+                             else 0 if col.dtype.kind in "iu" else np.nan)
+                wider = np.full((n, width), fill, dtype=col.dtype)
+                wider[:, :col.shape[1]] = col
+                cols[name] = wider
         status = cols.get("status", np.full(n, "", dtype=object))
         error = cols.get("error", np.full(n, "", dtype=object))
         valid = designs["valid"].values
