@@ -74,7 +74,8 @@ class MappingRound:
     check : Evaluation
         The same design as the checking model scores it.
     factors : dict
-        ``"<stage>.<quantity>"`` → check/search ratio at the best checked design so far:
+        ``"<stage>.<quantity>"`` → check/search ratio at the round's design (FE in the
+        loop since stop 34; model-vs-model mapping: at the best checked design so far):
         the correction of the next round.
     evaluations : int
         Search-model evaluations of the round.

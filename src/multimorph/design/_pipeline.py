@@ -17,6 +17,8 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from multimorph.design._evaluate import Evaluation
 from multimorph.design._fe_check import fe_checker
 from multimorph.design._mapped import (
@@ -200,7 +202,12 @@ def _fe_loop(searched: TargetSpec, result: DesignResult, search: Callable[..., D
              twist: str = "strip",
              ) -> DesignResult:
     """FE in the loop: device FE of the best design; where it misses, the model corrected
-    by the FE/model ratio of the best FE-checked design and the search run again near it."""
+    by the FE/model ratio of the round's design (space mapping on the newest iterate) and
+    the search run again near the best FE-checked design. A round whose search returns a
+    design FE has already checked ends the loop: the same FE result would only repeat (a
+    round that moves away from the best one still corrects the next search: stop 34,
+    where correcting by the best design's ratio alone ran the gripper's rounds 4–6 on one
+    and the same design)."""
     check = fe_checker(folder, mesh=mesh, wall_elements=wall_elements, max_steps=max_steps,
                        route=route, twist=twist,
                        progress=(lambda text: stage(text)) if stage is not None else None,
@@ -209,6 +216,7 @@ def _fe_loop(searched: TargetSpec, result: DesignResult, search: Callable[..., D
     rounds: list[MappingRound] = []
     best_fe: tuple[Evaluation, Evaluation] | None = None    # (model, FE) of the best so far
     correction = None
+    checked: list[np.ndarray] = []
     for k in range(fe_rounds + 1):
         t0 = time.perf_counter()
         if k > 0:
@@ -217,6 +225,13 @@ def _fe_loop(searched: TargetSpec, result: DesignResult, search: Callable[..., D
                             tag=f"FE round {k}: ")
             if result.best is None:
                 break
+            if any(np.allclose(result.best.candidate.x, x, rtol=0.0, atol=1e-9)
+                   for x in checked):
+                if stage is not None:
+                    stage(f"FE round {k}: the search returned a design FE has checked; "
+                          "stopping")
+                break
+        checked.append(np.asarray(result.best.candidate.x, float))
         mine = rescore(searched, result.best)          # the model's own view, uncorrected
         if stage is not None:
             stage(f"FE round {k}: {'module' if route == 'modules' else 'device'} FE of the "
@@ -224,7 +239,7 @@ def _fe_loop(searched: TargetSpec, result: DesignResult, search: Callable[..., D
         fe_ev = check(searched, [result.best])[0]
         if best_fe is None or fe_ev.objective < best_fe[1].objective:
             best_fe = (mine, fe_ev)
-        nxt = correction_factors(*best_fe, pmax)
+        nxt = correction_factors(mine, fe_ev, pmax)
         rounds.append(MappingRound(k, searched, correction, mine, fe_ev,
                                    flat_factors(searched, nxt), result.evaluations,
                                    time.perf_counter() - t0))
