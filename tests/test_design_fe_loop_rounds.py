@@ -1,0 +1,118 @@
+"""FE in the loop without FE (issue 19): the loop's own rules, with a stand-in "FE" that
+scores each design as the model does but with every stage stiffer (20 %, then 50 %, 80 %
+for the designs checked after it), so that no design meets the target in "FE" and a later
+round is worse than the first.
+
+- each round corrects the next search by its own design's FE/model ratio (stop 34; before,
+  the best design's ratio, which repeated one design when a round did worse);
+- a search that returns a design FE has already checked ends the loop: the same FE result
+  would only repeat (the gripper's rounds 4–6 were one design three times).
+"""
+
+import tomllib
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from multimorph.design import DesignSettings, _pipeline, design, target_from_spec
+from multimorph.design._evaluate import evaluate_one
+from test_design_helpers import STANDIN
+
+TARGET = """
+[[stage]]
+name = "a"
+kind = "bend"
+angle = "90 deg"
+pressure = "30 kPa"
+
+[[stage]]
+name = "b"
+kind = "bend"
+angle = "-45 deg"
+band = ["30 kPa", "45 kPa"]
+
+[constraints]
+max_pressure = "60 kPa"
+materials = ["ecoflex-00-30", "dragon-skin-10"]
+"""
+
+
+#: the stand-in FE's pressure factor on the first, second, third … design it checks
+STIFFER = (1.2, 1.5, 1.8)
+
+
+def _stiffer(responses, factor):
+    """The stand-in responses of a design with every pressure × ``factor``."""
+    out = []
+    for r in responses:
+        ch = r.characteristic
+        out.append(replace(r, characteristic=replace(
+            ch, critical=None if ch.critical is None else factor * ch.critical,
+            hardening=None if ch.hardening is None else factor * ch.hardening)))
+    return out
+
+
+@pytest.fixture
+def loop(monkeypatch, tmp_path):
+    target = target_from_spec(tomllib.loads(TARGET))
+    first = design(target, model=STANDIN, settings=DesignSettings(budget=400, population=8,
+                                                                   seed=0))
+    assert first.best is not None
+    checked: list[np.ndarray] = []
+
+    def fake_checker(folder, **kw):
+        def check(t, evs):
+            ev = evs[0]
+            factor = STIFFER[min(len(checked), len(STIFFER) - 1)]
+            checked.append(np.asarray(ev.candidate.x, float).copy())
+            return [evaluate_one(t, ev.candidate, _stiffer(ev.responses, factor),
+                                 fixed_cells=[s.n_cells for s in ev.stages])]
+        return check
+
+    monkeypatch.setattr(_pipeline, "fe_checker", fake_checker)
+    return target, first, checked, tmp_path
+
+
+def test_a_search_that_returns_a_checked_design_ends_the_loop(loop) -> None:
+    target, first, checked, tmp_path = loop
+    searches = []
+
+    def same_again(x0=None, correction=None, tag=""):
+        searches.append(correction)
+        return first                       # the search finds the same design again
+
+    r = _pipeline._fe_loop(target, first, same_again, fe_rounds=3, model=STANDIN,
+                           folder=tmp_path, mesh="coarse", wall_elements=None, stage=None,
+                           records=[])
+    assert len(checked) == 1 and len(r.fe_rounds) == 1     # FE ran once, not 4 times
+    assert len(searches) == 1                              # the repeat was searched, not FE'd
+    assert not r.fe_rounds[0].check.meets
+
+
+def test_each_round_is_corrected_by_its_own_designs_ratio(loop) -> None:
+    target, first, checked, tmp_path = loop
+    others = iter([replace(first, designs=[d]) for d in first.designs[1:4]
+                   if d is not first.best])
+    corrections = []
+
+    def next_design(x0=None, correction=None, tag=""):
+        corrections.append(correction)
+        return next(others)
+
+    r = _pipeline._fe_loop(target, first, next_design, fe_rounds=2, model=STANDIN,
+                           folder=tmp_path, mesh="coarse", wall_elements=None, stage=None,
+                           records=[])
+    assert len(r.fe_rounds) == 3 and len(checked) == 3
+    # round 0 stays the best FE-checked design (the later ones are stiffer still) ...
+    assert r.fe_best.objective == r.fe_rounds[0].check.objective
+    assert r.fe_rounds[1].check.objective > r.fe_rounds[0].check.objective
+    # ... but each search is corrected by the ratio of the design checked just before it
+    # (round 0's 1.2, then round 1's 1.5), not by the best one's every time
+    for corr, want in zip(corrections, STIFFER, strict=False):
+        for stage in corr:
+            assert stage["start_pressure"] == pytest.approx(want)
+            assert stage["end_pressure"] == pytest.approx(want)
+    for rd, corr in zip(r.fe_rounds[:-1], corrections, strict=True):
+        assert all(corr[i][q] == pytest.approx(rd.factors[f"{st.name}.{q}"])
+                   for i, st in enumerate(target.stages) for q in corr[i])
