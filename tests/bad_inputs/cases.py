@@ -330,32 +330,34 @@ def simulate_cases() -> Iterator[Case]:
     yield case("huge", "pmax-1e40", pm, 'pmax = "1e40 kPa"', "device.pmax")
     yield case("typo-key", "pmx", pm, 'pmx = "60 kPa"', "pmx")
     yield case("typo-key", "kind", 'kind = "twisting"', 'kind = "twistin"', "twistin")
-    yield case("missing-key", "module-cell", 'cell = "twist"\n', "", "module 'twister'.cell")
+    yield case("missing-key", "module-cell", 'cell = "twister"\n', "", "module 'twister'.cell")
     yield case("sign", "cells-zero", "cells = 6", "cells = 0", "cells")
     yield case("huge", "cells-1e9", "cells = 6", "cells = 1000000000", "cells")
     yield case("huge", "count-1e9", "count = 3", "count = 1000000000", "count")
     yield case("wrong-type", "cells-float", "cells = 6", "cells = 2.5", "cells")
     yield case("wrong-type", "cells-string", "cells = 6", 'cells = "6"', "cells")
     yield case("sign", "count-negative", "count = 3", "count = -3", "count")
-    yield case("units", "tilt-no-unit-string", 'tilt = "30 deg"', 'tilt = "30"', "tilt")
-    yield case("units", "tilt-bare-number", 'tilt = "30 deg"', "tilt = 30", "tilt")
-    yield case("units", "tilt-length", 'tilt = "30 deg"', 'tilt = "30 mm"', "tilt")
-    yield case("units", "tilt-percent", 'tilt = "30 deg"', 'tilt = "30 %"', "tilt")
-    yield case("geometry", "tilt-95-deg", 'tilt = "30 deg"', 'tilt = "95 deg"', "tilt")
-    yield case("units", "orientation-no-unit-string", 'radius = "10 mm"',
-               'radius = "10 mm"\norientation = "180"', "orientation")
-    yield case("sign", "radius-negative", 'radius = "10 mm"', 'radius = "-10 mm"', "radius")
-    yield case("nan-inf", "shaft-nan", 'shaft_radius = "6 mm"', 'shaft_radius = "nan mm"',
+    tilt = 'tilt = "24.0 deg"'
+    yield case("units", "tilt-no-unit-string", tilt, 'tilt = "30"', "tilt")
+    yield case("units", "tilt-bare-number", tilt, "tilt = 30", "tilt")
+    yield case("units", "tilt-length", tilt, 'tilt = "30 mm"', "tilt")
+    yield case("units", "tilt-percent", tilt, 'tilt = "30 %"', "tilt")
+    yield case("geometry", "tilt-95-deg", tilt, 'tilt = "95 deg"', "tilt")
+    yield case("units", "orientation-no-unit-string", 'radius = "3.54 mm"',
+               'radius = "3.54 mm"\norientation = "180"', "orientation")
+    yield case("sign", "radius-negative", 'radius = "3.54 mm"', 'radius = "-10 mm"',
+               "radius")
+    yield case("nan-inf", "shaft-nan", 'shaft_radius = "5 mm"', 'shaft_radius = "nan mm"',
                "shaft_radius")
     yield case("unknown-key", "attach-to-nobody", 'attach_to = "twister"',
                'attach_to = "nobody"', "nobody")
-    yield case("unknown-key", "cell-name", 'cell = "finger"', 'cell = "fniger"', "fniger")
+    yield case("unknown-key", "cell-name", 'cell = "fingers"', 'cell = "fniger"', "fniger")
     yield case("unknown-material", "library-name", 'material = "dragon-skin-10"',
-               'material = "unobtainium"', "cells.twist.material")
-    yield case("geometry", "twist-side-walls", 'side_wall = "2.5 mm"', 'side_wall = "7 mm"',
-               "cells.twist")
-    yield case("sign", "finger-top-wall", 'top_wall = "1.18 mm"', 'top_wall = "-1 mm"',
-               "cells.finger.top_wall")
+               'material = "unobtainium"', "cells.twister.material")
+    yield case("geometry", "twist-side-walls", 'side_wall = "1.28 mm"', 'side_wall = "7 mm"',
+               "cells.twister")
+    yield case("sign", "finger-top-wall", 'top_wall = "1.94 mm"', 'top_wall = "-1 mm"',
+               "cells.fingers.top_wall")
     yield case("unknown-key", "top-table", "[device]", "[devise]", "devise")
     yield case("unknown-key", "module-colour", "strips = 3", 'strips = 3\ncolour = "red"',
                "colour")
