@@ -483,6 +483,21 @@ def _truncate(path: EquilibriumPath, p_max: float) -> tuple[EquilibriumPath, boo
     return replace(keep, **arrays, extra=extra), True
 
 
+def straight_of(arrays: dict[str, np.ndarray], manifest: dict[str, Any], data: Any,
+                fast: bool) -> np.ndarray:
+    """The tilted training cells' :data:`~._fit.STRAIGHT_FEATURES` from a model being
+    fitted (``arrays``, ``manifest`` so far: its bending kind; ``fast``: that kind's fast
+    variant), each at its own set's end level (``_fit.fit_and_save``'s ``straight_of``)."""
+    model = CalibratedModel(arrays, {k: v for k, v in manifest.items()
+                                     if k in ("kinds", "fast_kinds", "emulators")})
+    ends = data.end if data.end is not None else np.zeros(len(data.cells))
+    out = np.full((len(data.cells), 3), np.nan)
+    for end in np.unique(ends):
+        rows = np.flatnonzero(ends == end)
+        out[rows] = model.straight_features([data.cells[i] for i in rows], float(end), fast)
+    return out
+
+
 @lru_cache(maxsize=2)
 def load_model(path: str | None = None) -> CalibratedModel:
     """The shipped calibrated model (cached).

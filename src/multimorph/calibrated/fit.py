@@ -66,10 +66,11 @@ def main(argv: list[str] | None = None) -> int:
         fit_twist_shear()
         return 0
     from multimorph.calibrated._fit import fit_and_save
+    from multimorph.calibrated._model import straight_of
 
     try:
         fit_and_save(emulators=args.emulators,
-                     kinds=tuple(args.kinds) if args.kinds else None)
+                     kinds=tuple(args.kinds) if args.kinds else None, straight_of=straight_of)
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
