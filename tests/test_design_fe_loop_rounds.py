@@ -9,34 +9,15 @@ round is worse than the first.
   would only repeat (the gripper's rounds 4–6 were one design three times).
 """
 
-import tomllib
 from dataclasses import replace
 
 import numpy as np
 import pytest
 
-from multimorph.design import DesignSettings, _pipeline, design, target_from_spec
+from multimorph.design import DesignSettings, _pipeline, design
 from multimorph.design._evaluate import evaluate_one
 from test_design_helpers import STANDIN
-
-TARGET = """
-[[stage]]
-name = "a"
-kind = "bend"
-angle = "90 deg"
-pressure = "30 kPa"
-
-[[stage]]
-name = "b"
-kind = "bend"
-angle = "-45 deg"
-band = ["30 kPa", "45 kPa"]
-
-[constraints]
-max_pressure = "60 kPa"
-materials = ["ecoflex-00-30", "dragon-skin-10"]
-"""
-
+from test_design_infeasible import target as two_bends
 
 #: the stand-in FE's pressure factor on the first, second, third … design it checks
 STIFFER = (1.2, 1.5, 1.8)
@@ -55,7 +36,8 @@ def _stiffer(responses, factor):
 
 @pytest.fixture
 def loop(monkeypatch, tmp_path):
-    target = target_from_spec(tomllib.loads(TARGET))
+    target = two_bends(p1="30 kPa", p2="45 kPa",
+                       materials='["ecoflex-00-30", "dragon-skin-10"]')
     first = design(target, model=STANDIN, settings=DesignSettings(budget=400, population=8,
                                                                    seed=0))
     assert first.best is not None

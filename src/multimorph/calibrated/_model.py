@@ -195,16 +195,21 @@ class CalibratedModel:
         cells' bending-kind prediction at the end level ``end`` (NaN outside its box)."""
         from multimorph.calibrated._fit import straight_features
 
-        kinds = self.fast_kinds if fast else self.kinds
-        b = kinds["bending"]
         straight = [c.cell if isinstance(c, TiltedCell) else c for c in cells]
-        if b.end_input is not None and b.end_input != end:
-            other = copy.copy(self)
-            kinds = {**kinds, "bending": replace(b, end_input=float(end))}
-            other.kinds, other.fast_kinds = ((self.kinds, kinds) if fast
-                                             else (kinds, self.fast_kinds))
-            return straight_features(other.grid(straight, fast=fast))
-        return straight_features(self.grid(straight, fast=fast))
+        return straight_features(self.bending_at(end).grid(straight, fast=fast))
+
+    def bending_at(self, end: float) -> CalibratedModel:
+        """This model with its bending kind (both variants) answering at the end level
+        ``end`` (0 plate, 1 mirror); itself where the kind has no end input or is there."""
+        out = self
+        for attr in ("kinds", "fast_kinds"):
+            kinds = getattr(self, attr)
+            b = kinds.get("bending")
+            if b is not None and b.end_input is not None and b.end_input != end:
+                if out is self:
+                    out = copy.copy(self)
+                setattr(out, attr, {**kinds, "bending": replace(b, end_input=float(end))})
+        return out
 
     # ------------------------------------------------------------------ grid
     def grid(self, cells: Sequence[CellGeometry | TiltedCell], *,

@@ -43,54 +43,7 @@ def plate_level(model: Any) -> Any:
     tilted cell's straight cell is read (the tilted FE cells, and the device FE check's
     twisting modules, are one cell with its far end tied to a plate); ``model`` itself
     when the kind has no end input."""
-    import copy
-    from dataclasses import replace
-
-    out = copy.copy(model)
-    for attr in ("kinds", "fast_kinds"):
-        kinds = getattr(model, attr)
-        b = kinds.get("bending")
-        if b is not None and b.end_input is not None:
-            setattr(out, attr, {**kinds, "bending": replace(b, end_input=0.0)})
-    return out
-
-
-def _fit_log_factor(train: list[tuple[float, float, float]],
-                    held: list[tuple[float, float, float]], what: str,
-                    extra: dict[str, Any]) -> dict[str, Any]:
-    if len(train) < 3 * len(_features(0.5, 30.0)):
-        raise ValueError(f"twist {what}: {len(train)} tilted training designs; at least 9 "
-                         "are needed")
-
-    def xy(ss: list[tuple[float, float, float]]) -> tuple[np.ndarray, np.ndarray]:
-        return (np.array([_features(t, j) for t, j, _ in ss]),
-                np.array([r for _, _, r in ss]))
-
-    X, y = xy(train)
-    coef = np.linalg.lstsq(X, y, rcond=None)[0]
-    loo = []
-    for i in range(len(y)):
-        keep = np.arange(len(y)) != i
-        c = np.linalg.lstsq(X[keep], y[keep], rcond=None)[0]
-        loo.append(y[i] - X[i] @ c)
-    loo_a = np.asarray(loo)
-
-    def stats(residual_log: np.ndarray) -> dict[str, float]:
-        e = np.abs(np.exp(-residual_log) - 1.0)        # |model − FE| / FE
-        return {"n": len(e), "median": round(float(np.median(e)), 4),
-                "p90": round(float(np.percentile(e, 90)), 4)} if len(e) else {"n": 0}
-
-    out: dict[str, Any] = {
-        "features": ["1", *SHEAR_FEATURES], "coefficients": [float(v) for v in coef],
-        "tilt_range": [min(t for t, _, _ in train), max(t for t, _, _ in train)],
-        "jm_range": [min(j for _, j, _ in train), max(j for _, j, _ in train)],
-        "sigma_log": float(np.std(loo_a, ddof=1)), "training_designs": len(train),
-        "rule_error": stats(y), "leave_one_out_error": stats(loo_a), **extra}
-    if held:
-        Xh, yh = xy(held)
-        out["holdout_error"] = stats(yh - Xh @ coef)
-        out["holdout_rule_error"] = stats(yh)
-    return out
+    return model.bending_at(0.0)
 
 
 def shear_samples(model: Any, sets: Mapping[str, Any] | None = None,
@@ -144,13 +97,45 @@ def fit_shear_factor(samples: list[dict[str, Any]]) -> dict[str, Any]:
     """Fit ln c on the training samples; the result (stored in the model's manifest) has
     the coefficients, the fitted ranges, the leave-one-out and held-out errors of the
     shear with and without the factor (|γ − γ_FE| / γ_FE: median, p90) and the scatter."""
-    def rows(hold: bool) -> list[tuple[float, float, float]]:
-        return [(s["tilt"], s["jm"], math.log(s["fe"] / s["rule"])) for s in samples
-                if s["holdout"] == hold]
+    train = [s for s in samples if not s["holdout"]]
+    held = [s for s in samples if s["holdout"]]
+    if len(train) < 3 * len(_features(0.5, 30.0)):
+        raise ValueError(f"twist shear factor: {len(train)} tilted training designs past "
+                         "Pc; at least 9 are needed")
 
-    return _fit_log_factor(rows(False), rows(True), "shear factor", {
+    def xy(ss: list[dict[str, Any]]) -> tuple[np.ndarray, np.ndarray]:
+        return (np.array([_features(s["tilt"], s["jm"]) for s in ss]),
+                np.array([math.log(s["fe"] / s["rule"]) for s in ss]))
+
+    X, y = xy(train)
+    coef = np.linalg.lstsq(X, y, rcond=None)[0]
+    loo = []
+    for i in range(len(y)):
+        keep = np.arange(len(y)) != i
+        c = np.linalg.lstsq(X[keep], y[keep], rcond=None)[0]
+        loo.append(y[i] - X[i] @ c)
+    loo = np.asarray(loo)
+
+    def stats(residual_log: np.ndarray) -> dict[str, float]:
+        e = np.abs(np.exp(-residual_log) - 1.0)        # |γ_model − γ_FE| / γ_FE
+        return {"n": len(e), "median": round(float(np.median(e)), 4),
+                "p90": round(float(np.percentile(e, 90)), 4)} if len(e) else {"n": 0}
+
+    out: dict[str, Any] = {
+        "features": ["1", *SHEAR_FEATURES], "coefficients": [float(v) for v in coef],
+        "tilt_range": [min(s["tilt"] for s in train), max(s["tilt"] for s in train)],
+        "jm_range": [min(s["jm"] for s in train), max(s["jm"] for s in train)],
+        "sigma_log": float(np.std(loo, ddof=1)),
+        "training_designs": len(train),
+        "rule_error": stats(y), "leave_one_out_error": stats(loo),
         "read_at": "the last pressure both the FE path and the calibrated path reach, past "
-                   "the FE Pc"})
+                   "the FE Pc",
+    }
+    if held:
+        Xh, yh = xy(held)
+        out["holdout_error"] = stats(yh - Xh @ coef)
+        out["holdout_rule_error"] = stats(yh)
+    return out
 
 
 def shear_factor(fit: Mapping[str, Any] | None, tilt: float, jm: float,
