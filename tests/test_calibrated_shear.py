@@ -53,9 +53,11 @@ def test_the_shipped_factor_scales_the_shear_and_leaves_pc_ph_alone() -> None:
     fit = model.twisting_shear
     assert fit is not None, "the shipped model has no twist shear factor (fit twist-shear)"
     # FE shears less than the rule: the factor is below 1 over the data, and it beats the
-    # rule out of sample (leave-one-out and on the held-out tilted cells)
-    assert fit["leave_one_out_error"]["median"] < 0.5 * fit["rule_error"]["median"]
-    assert fit["holdout_error"]["median"] < fit["holdout_rule_error"]["median"]
+    # rule out of sample (leave-one-out, and the far tail on the held-out tilted cells)
+    assert fit["leave_one_out_error"]["median"] < 0.7 * fit["rule_error"]["median"]
+    assert fit["leave_one_out_error"]["p90"] < 0.7 * fit["rule_error"]["p90"]
+    assert fit["holdout_error"]["median"] <= fit["holdout_rule_error"]["median"]
+    assert fit["holdout_error"]["p90"] < 0.8 * fit["holdout_rule_error"]["p90"]
     bare = copy.copy(model)
     bare.twisting_shear = None
     cell = _tilted(30.0)
@@ -89,3 +91,33 @@ def test_a_tilted_cell_is_read_on_its_straight_cell_at_the_plate_level() -> None
     p_plate = np.interp(v, plate.path.volume, plate.path.pressure)
     p_mirror = np.interp(v, mirror.path.volume, mirror.path.pressure)
     assert np.median(p_plate / p_mirror) > 1.0
+
+
+def test_the_twisting_kind_places_the_straight_cells_path_on_its_anchors() -> None:
+    """A tilted cell with the twisting kind (stop 35): the straight cell's path and strip
+    shear, its pressures mapped monotonically onto the tilted-cell calibration's Pc and Ph;
+    the path's own reading of Pc lands on that anchor (the module sees its fastest twist
+    there), and the shear at each chamber volume is the straight cell's."""
+    model = load_model()
+    if "twisting" not in model.kinds:
+        pytest.skip("the shipped model has no twisting kind")
+    for deg in (20.0, 30.0, 45.0):
+        cell = _tilted(deg)
+        r = model.response(cell, 3e5)
+        s = model.tilted_by_straight([cell], 1.2e6)[0]
+        cal = r.meta["calibration"]
+        assert cal["kind"] == "twisting"
+        assert "moved onto Pc and Ph calibrated on the tilted FE cells" in cal["twisting"]
+        assert cal["shear_factor"] == pytest.approx(s.meta["calibration"]["shear_factor"])
+        n = len(r.path) - 1                 # the last point may be cut at p_max
+        for name in ("log_volume_ratio", "shear"):
+            assert np.allclose(np.asarray(r.path.extra[name])[:n],
+                               np.asarray(s.path.extra[name])[:n])
+        P, Ps = np.asarray(r.path.pressure)[:n], np.asarray(s.path.pressure)[:n]
+        assert np.all(np.diff(P)[np.diff(Ps) > 0] > 0)          # a monotone map
+        anchors = cal["anchors"]
+        assert r.characteristic.critical == pytest.approx(anchors["critical_pressure"])
+        assert anchors["path_critical_pressure"] == pytest.approx(
+            anchors["critical_pressure"], rel=0.05)
+        lo, hi = cal["critical_pressure_range"]
+        assert lo < r.characteristic.critical < hi

@@ -356,7 +356,7 @@ def simulate_cases() -> Iterator[Case]:
                'material = "unobtainium"', "cells.twister.material")
     yield case("geometry", "twist-side-walls", 'side_wall = "1.28 mm"', 'side_wall = "7 mm"',
                "cells.twister")
-    yield case("sign", "finger-top-wall", 'top_wall = "1.94 mm"', 'top_wall = "-1 mm"',
+    yield case("sign", "finger-top-wall", 'top_wall = "1.86 mm"', 'top_wall = "-1 mm"',
                "cells.fingers.top_wall")
     yield case("unknown-key", "top-table", "[device]", "[devise]", "devise")
     yield case("unknown-key", "module-colour", "strips = 3", 'strips = 3\ncolour = "red"',

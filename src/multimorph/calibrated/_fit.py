@@ -69,16 +69,14 @@ KIND_SETS = {"bending": ("bending", "bending_narrow", "bending_single", "bending
                          "bending_single2_mirror"),
              "stretching": ("stretching_mirror", "stretching_narrow_mirror"),
              "twisting": ("twisting",)}
-#: The kinds ``fit model`` fits by default. Tilted cells are answered by their straight
-#: cell (``_model.CalibratedModel.tilted_by_straight``): a twisting kind of their own (its
-#: GP on the straight cell's features, :data:`STRAIGHT_FEATURES`) was fitted in stop 34.
-#: On 65 tilted training designs it was worse on the held-out ones (Pc median / p90
-#: 15.9 / 28.3 % against 10.0 / 25.8 %); on all 84 (27 held out) it is better on the
-#: pressures (Pc 10.8 / 22.7 % against 10.8 / 30.5 %, Ph 12.6 / 23.9 % against
-#: 18.9 / 40.6 %) but its shear curves have a far tail (p90 285 % of the FE range against
-#: 40 %), which would mislead a twisting module's twist. ``fit model --kinds twisting``
-#: fits it on request.
-DEFAULT_KINDS = ("bending", "stretching")
+#: The kinds ``fit model`` fits by default. The twisting kind (shipped since stop 35) is a
+#: GP on the tilted FE cells whose inputs include the straight cell's calibrated features
+#: (:data:`STRAIGHT_FEATURES`); the run time uses its Pc and Ph anchors, onto which it maps
+#: the straight cell's path and strip shear (``_model.CalibratedModel.tilted_by_kind``): on
+#: the 27 held-out tilted designs Pc 11.5 / 20.2 %, Ph 16.4 / 24.6 % (median / p90)
+#: against the straight cell's 10.8 / 30.5 % and 18.9 / 40.6 %. Its own shear curves had a
+#: far tail (p90 285 % of the FE range) and are not used.
+DEFAULT_KINDS = ("bending", "stretching", "twisting")
 #: A kind is fitted only with at least this many training designs per GP input (its
 #: groups and three Ritz features): with fewer, the linear means alone nearly interpolate
 #: (15 tilted cells for 12 inputs gave log P errors of 100 % and more in cross-validation).

@@ -290,7 +290,13 @@ class CalibratedModel:
         for i, c in enumerate(cells):
             by_kind.setdefault(kind_of(c), []).append(i)
         for kind, idx in by_kind.items():
-            if kind == "twisting" and kind not in kinds:
+            if kind == "twisting" and kind in kinds:
+                for i, r in zip(idx, self.tilted_by_kind(
+                        [cells[i] for i in idx], p_max,  # type: ignore[misc]
+                        fallback=fallback, fast=fast), strict=True):
+                    out[i] = r
+                continue
+            if kind == "twisting":
                 for i, r in zip(idx, self.tilted_by_straight(
                         [cells[i] for i in idx], p_max,  # type: ignore[misc]
                         fallback=fallback, fast=fast), strict=True):
@@ -325,8 +331,9 @@ class CalibratedModel:
     def tilted_by_straight(self, cells: Sequence[TiltedCell], p_max: float, *,
                            fallback: bool = True, fast: bool = False,
                            ) -> list[Response | Exception]:
-        """Tilted cells answered without a tilted-cell calibration (a model without a
-        twisting kind): the straight cell's calibrated response, read on the strip shear of
+        """Tilted cells answered by their straight cell (a model without a twisting kind;
+        with one, :meth:`tilted_by_kind` places this answer on its anchors): the straight
+        cell's calibrated response, read on the strip shear of
         the Ritz rule γ = ε sin 2β times the factor calibrated on the tilted FE cells
         (``_shear``). The straight cell is read at the plate level (since stop 34;
         :func:`._shear.plate_level`): a tilted cell is calibrated, and checked in the device
@@ -338,6 +345,81 @@ class CalibratedModel:
         return [r if isinstance(r, Exception) else _straight_for_tilted(r, c,
                                                                         self.twisting_shear)
                 for c, r in zip(cells, straight, strict=True)]
+
+    def tilted_by_kind(self, cells: Sequence[TiltedCell], p_max: float, *,
+                       fallback: bool = True, fast: bool = False,
+                       ) -> list[Response | Exception]:
+        """Tilted cells with the model's twisting kind (since stop 35): the straight
+        cell's path and strip shear (:meth:`tilted_by_straight`) with its pressures moved
+        onto the twisting kind's Pc and Ph anchors — a monotone piecewise-linear map of
+        pressure taking the straight cell's Pc to the kind's Pc and its Ph to the kind's Ph
+        (one ratio below Pc, and above Ph; one ratio throughout where either has no Ph).
+        The path keeps the straight cell's shape (its ballooning plateau where it has one)
+        and the tilted-cell calibration places it. A cell outside the twisting kind's box
+        or without its anchors keeps the straight cell's answer."""
+        pred = self.grid(cells, fast=fast)
+        # the calibrated straight path to its data's end (the map may lower its pressures);
+        # a cell without one falls back as the straight cell would, traced to p_max only
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", CalibrationWarning)
+            straight = self.tilted_by_straight(cells, 4.0 * float(p_max), fallback=False,
+                                               fast=fast)
+        redo = [i for i, s in enumerate(straight) if isinstance(s, Exception)]
+        if redo:
+            for i, s in zip(redo, self.tilted_by_straight(
+                    [cells[i] for i in redo], p_max, fallback=fallback, fast=fast),
+                    strict=True):
+                straight[i] = s
+        k = (self.fast_kinds if fast else self.kinds)["twisting"]
+        out: list[Response | Exception] = []
+        for r, (cell, s) in enumerate(zip(cells, straight, strict=True)):
+            if isinstance(s, Exception) or not str(s.meta.get("model", "")).startswith(
+                    "calibrated"):
+                out.append(s)
+                continue
+            anchors = pred.anchors[r] if pred.anchors is not None else (np.nan, np.nan)
+            pc_t, ph_t = (math.exp(v) * cell.cell.mu if math.isfinite(v) else None
+                          for v in anchors)
+            ch = s.characteristic
+            if not pred.inside[r] or pc_t is None or ch.critical is None:
+                out.append(_truncated_response(s, cell, p_max))
+                continue
+            pc_s, ph_s = ch.critical, ch.hardening
+            if ph_t is not None and ph_s is not None and ph_t > pc_t and ph_s > pc_s:
+                knots_s, knots_t = [0.0, pc_s, ph_s], [0.0, pc_t, ph_t]
+            else:
+                knots_s, knots_t, ph_t = [0.0, pc_s], [0.0, pc_t], None
+            P = np.asarray(s.path.pressure, float)
+            last = knots_t[-1] / knots_s[-1]
+            warped = np.where(P <= knots_s[-1], np.interp(P, knots_s, knots_t),
+                              knots_t[-1] + (P - knots_s[-1]) * last)
+            path = replace(s.path, pressure=warped)
+            path, reached = _truncate(path, p_max)
+            resp = build_response(path, length=cell.cell.length, shear_modulus=cell.cell.mu,
+                                  backend=s.backend,
+                                  break_stretch=cell.cell.material.break_stretch,
+                                  signal="twist_rate")
+            sd = (None if pred.anchor_std is None
+                  else (float(pred.anchor_std[r, 0]), float(pred.anchor_std[r, 1])))
+            char, info = anchored_characteristic(resp, pc_t, ph_t, sd)
+            resp = replace(resp, characteristic=char)
+            cal = dict(s.meta.get("calibration") or {})
+            cal["kind"] = "twisting"
+            cal["anchors"] = info
+            cal["reached_p_max"] = bool(reached)
+            for j, (name, v) in enumerate((("critical_pressure_range", char.critical),
+                                           ("hardening_pressure_range", char.hardening))):
+                cal[name] = (None if v is None or sd is None or not math.isfinite(sd[j])
+                             else [v * math.exp(-sd[j]), v * math.exp(sd[j])])
+            cal["twisting"] = (
+                "the straight cell's calibrated response (plate level) and strip shear ("
+                + cal.get("twisting", "").split("; ", 1)[-1]
+                + "), its pressures moved onto Pc and Ph calibrated on the tilted FE cells"
+                + ("" if k.straight_end is None else
+                   f" (their GP reads the straight cell at end level {k.straight_end:g})"))
+            out.append(resp.with_meta(**{**s.meta, "points": len(path),
+                                         "calibration": cal}))
+        return out
 
     def response(self, cell: CellGeometry | TiltedCell, p_max: float) -> Response:
         """One cell's :class:`Response` (raises where it has none)."""
@@ -416,12 +498,24 @@ class CalibratedModel:
                     "data_pressure_end": p_data if math.isfinite(p_data) else None,
                     "reached_p_max": reached,
                     "model_version": self.manifest.get("code_version", "")}}
-        if pred.kind == "twisting":
+        if pred.kind == "twisting" and isinstance(cell, TiltedCell):
+            from multimorph.calibrated._shear import shear_factor
+
             k = (self.fast_kinds if fast else self.kinds)["twisting"]
+            fit = self.twisting_shear
+            factor, sigma, inside = shear_factor(fit, abs(cell.tilt), cell_groups(cell)["jm"])
             meta["calibration"]["twisting"] = (
-                "calibrated on the tilted FE cells, on the straight cell's calibrated "
-                "response" + ("" if k.straight_end is None else
-                              f" (end level {k.straight_end:g})"))
+                "pressures calibrated on the tilted FE cells (on the straight cell's "
+                "calibrated response" + ("" if k.straight_end is None else
+                                         f", end level {k.straight_end:g}") + "); the strip "
+                "shear by the Ritz rule γ = ε sin 2β at the same chamber volume"
+                + (f" times a factor calibrated on {fit['training_designs']} tilted FE cells"
+                   + ("" if inside else " (held at the edge of its tilts and Jm)")
+                   if fit else ""))
+            if fit:
+                meta["calibration"]["shear_factor"] = factor
+                meta["calibration"]["shear_factor_range"] = [factor * math.exp(-sigma),
+                                                             factor * math.exp(sigma)]
         return resp.with_meta(**meta)
 
 
@@ -459,6 +553,19 @@ def _straight_for_tilted(r: Response, cell: TiltedCell,
                            "(plate level); the strip shear follows the Ritz rule "
                            "γ = ε sin 2β")
     return resp.with_meta(**{**r.meta, "calibration": cal})
+
+
+def _truncated_response(r: Response, cell: TiltedCell, p_max: float) -> Response:
+    """``r`` (a calibrated tilted-cell response traced past ``p_max``) cut at ``p_max``."""
+    path, reached = _truncate(r.path, p_max)
+    if len(path) == len(r.path) and not reached:
+        return r
+    out = build_response(path, length=r.length, shear_modulus=r.shear_modulus,
+                         backend=r.backend, break_stretch=cell.cell.material.break_stretch,
+                         signal="twist_rate")
+    out = replace(out, characteristic=r.characteristic)
+    cal = {**(r.meta.get("calibration") or {}), "reached_p_max": bool(reached)}
+    return out.with_meta(**{**r.meta, "points": len(path), "calibration": cal})
 
 
 def _truncate(path: EquilibriumPath, p_max: float) -> tuple[EquilibriumPath, bool]:

@@ -1,8 +1,10 @@
 r"""The tilted cells' strip shear, calibrated against FE: a factor on the Ritz rule.
 
-A twisting module's tilted cell is answered by its straight cell's calibrated response
-(the tilt barely changes how a chamber balloons), and its strip shear by the Ritz rule
-γ = ε sin 2|β| (ε the mid-height strain along the chamber). On the FE reference data set's
+A twisting module's tilted cell takes its path from its straight cell's calibrated
+response (the tilt barely changes how a chamber balloons; since stop 35 its pressures are
+placed on the twisting kind's Pc and Ph anchors, ``CalibratedModel.tilted_by_kind``), and
+its strip shear from the Ritz rule γ = ε sin 2|β| (ε the mid-height strain along the
+chamber). On the FE reference data set's
 tilted cells that rule over-predicts the shear: FE / rule is a median 0.59 past Pc, lower at
 small tilts (the strip's bottom layer and side walls resist the shear that a free strip of
 chambers would take). This module fits an effective factor
@@ -10,7 +12,9 @@ chambers would take). This module fits an effective factor
     γ = c(β, Jm) · ε sin 2|β|,    ln c = a0 + a1 |β| + a2 ln Jm
 
 by least squares on ln(γ_FE / γ_rule) of the tilted training designs, each read at one
-pressure past its FE Pc (the last pressure both the FE path and the calibrated path reach).
+pressure past its FE Pc (the last pressure both the FE path and the calibrated path reach;
+the calibrated path is the model's own answer for the tilted cell, so the factor is fitted
+on the pressures the model gives).
 The factor multiplies a whole path, so Pc and Ph (read on the shear) do not move; the
 twist a module makes does. Outside the fitted tilts and Jm the factor is held at the edge
 of the data (no extrapolation), and it carries its leave-one-out scatter as an uncertainty.
@@ -67,7 +71,7 @@ def shear_samples(model: Any, sets: Mapping[str, Any] | None = None,
         pc = fe.characteristic.critical
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            rule = model.tilted_by_straight([cell], 2.0 * float(np.max(path["pressure"])))[0]
+            rule = model.responses([cell], 2.0 * float(np.max(path["pressure"])))[0]
         if (pc is None or isinstance(rule, Exception)
                 or not str(rule.meta.get("model", "")).startswith("calibrated")):
             continue
