@@ -498,24 +498,6 @@ class CalibratedModel:
                     "data_pressure_end": p_data if math.isfinite(p_data) else None,
                     "reached_p_max": reached,
                     "model_version": self.manifest.get("code_version", "")}}
-        if pred.kind == "twisting" and isinstance(cell, TiltedCell):
-            from multimorph.calibrated._shear import shear_factor
-
-            k = (self.fast_kinds if fast else self.kinds)["twisting"]
-            fit = self.twisting_shear
-            factor, sigma, inside = shear_factor(fit, abs(cell.tilt), cell_groups(cell)["jm"])
-            meta["calibration"]["twisting"] = (
-                "pressures calibrated on the tilted FE cells (on the straight cell's "
-                "calibrated response" + ("" if k.straight_end is None else
-                                         f", end level {k.straight_end:g}") + "); the strip "
-                "shear by the Ritz rule γ = ε sin 2β at the same chamber volume"
-                + (f" times a factor calibrated on {fit['training_designs']} tilted FE cells"
-                   + ("" if inside else " (held at the edge of its tilts and Jm)")
-                   if fit else ""))
-            if fit:
-                meta["calibration"]["shear_factor"] = factor
-                meta["calibration"]["shear_factor_range"] = [factor * math.exp(-sigma),
-                                                             factor * math.exp(sigma)]
         return resp.with_meta(**meta)
 
 
