@@ -68,7 +68,7 @@ KIND_SETS = {"bending": ("bending", "bending_narrow", "bending_single", "bending
                          "bending_mirror", "bending_narrow_mirror", "bending_single_mirror",
                          "bending_single2_mirror"),
              "stretching": ("stretching_mirror", "stretching_narrow_mirror"),
-             "twisting": ("twisting",)}
+             "twisting": ("twisting", "twisting2")}
 #: The kinds ``fit model`` fits by default. The twisting kind (shipped since stop 35) is a
 #: GP on the tilted FE cells whose inputs include the straight cell's calibrated features
 #: (:data:`STRAIGHT_FEATURES`); the run time uses its Pc and Ph anchors, onto which it maps

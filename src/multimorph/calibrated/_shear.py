@@ -54,16 +54,25 @@ def shear_samples(model: Any, sets: Mapping[str, Any] | None = None,
                   ) -> list[dict[str, Any]]:
     """One sample per tilted FE design that passed its Pc: its tilt, Jm, whether it is held
     out, the pressure it is read at, FE's strip shear and the rule's (the calibrated straight
-    cell's mid-height strain × sin 2|β|) there."""
+    cell's mid-height strain × sin 2|β|) there, from every set of tilted cells."""
+    from multimorph.calibrated._dataset import load_reference
+    from multimorph.calibrated._fit import KIND_SETS
+
+    sets = sets if sets is not None else load_reference()
+    out = []
+    for name in KIND_SETS["twisting"]:
+        ref = sets.get(name)
+        if ref is not None:
+            out.extend(_set_samples(model, name, ref))
+    return out
+
+
+def _set_samples(model: Any, name: str, ref: Any) -> list[dict[str, Any]]:
     import warnings
 
     from multimorph.calibrated._box import cell_groups
-    from multimorph.calibrated._dataset import load_reference
     from multimorph.calibrated._validate import fe_response, signal_of_loading
 
-    ref = (sets if sets is not None else load_reference()).get("twisting")
-    if ref is None:
-        return []
     out = []
     for row in np.flatnonzero(ref.ok):
         cell, path = ref.cell(int(row)), ref.path(int(row))
@@ -91,7 +100,7 @@ def shear_samples(model: Any, sets: Mapping[str, Any] | None = None,
         if g_fe <= 0 or g_rule <= 0:
             continue
         groups = cell_groups(cell)
-        out.append({"design": int(ref.design[row]),
+        out.append({"set": name, "design": int(ref.design[row]),
                     "holdout": bool(ref.holdout[row]), "tilt": float(groups["tilt"]),
                     "jm": float(groups["jm"]), "pressure": at, "fe": g_fe, "rule": g_rule})
     return out

@@ -45,7 +45,7 @@ CHECKS = (("bending", "bending"), ("bending", "bending_narrow"), ("bending", "be
           ("bending", "bending_single_mirror"), ("bending", "bending_single2_mirror"),
           ("bending", "grid24_mirror"), ("bending", "yeoh_mirror"),
           ("stretching", "stretching_mirror"), ("stretching", "stretching_narrow_mirror"),
-          ("twisting", "twisting"))
+          ("twisting", "twisting"), ("twisting", "twisting2"))
 
 
 def unseen_designs(manifest: dict[str, Any], kind: str, set_name: str, design: np.ndarray,
