@@ -225,6 +225,31 @@ def test_a_path_that_stopped_early_is_not_read_as_stiffer():
     assert g["end_pressure"] == pytest.approx(BEYOND * pmax / 120e3)   # reached: stiffer
 
 
+def test_a_motion_is_corrected_further_than_a_pressure():
+    """The motion's factor may reach 3 (the gripper's twister twisted 2.3-2.6 × the model
+    in FE, round after round; clipped at 2 the loop could not reach its angle); a pressure's
+    stays within 2, and both are bounded."""
+    from multimorph.design import StageResult
+    from multimorph.design._mapped import FACTOR_RANGE, MAGNITUDE_FACTOR_RANGE
+
+    t = load("target_gripper.toml")
+    pmax = t.constraints.max_pressure
+
+    class Ev:
+        def __init__(self, st):
+            self.stages = (st,)
+
+    s = StageResult("twister", "twist", 30e3, 40e3, 0.8, 3, None, None, None, traced_to=pmax)
+    for ratio, want in ((2.4, 2.4), (4.0, MAGNITUDE_FACTOR_RANGE[1]),
+                        (0.2, MAGNITUDE_FACTOR_RANGE[0])):
+        c = StageResult("twister", "twist", 2.5 * 30e3, 2.5 * 40e3 if ratio > 1 else 39e3,
+                        0.8 * ratio, 3, None, None, None, traced_to=pmax)
+        [f] = correction_factors(Ev(s), Ev(c), pmax)
+        assert f["magnitude"] == pytest.approx(want)
+        assert f["start_pressure"] == FACTOR_RANGE[1]                 # 2.5 × clipped at 2
+    assert MAGNITUDE_FACTOR_RANGE[1] > FACTOR_RANGE[1]
+
+
 def test_a_softer_checking_model_is_reached_by_tracing_further():
     """When the checking model is softer (factors < 1), the search model is traced beyond
     max_pressure (SearchSpace.model_pmax), so designs whose own Ph lies above it — the ones
