@@ -52,7 +52,7 @@ FACTOR_RANGE = (0.5, 2.0)
 #: motion at its Ph is the product of its cells' motion and the pressure it is read at,
 #: and the twist of a tilted cell is known only to a factor (the calibrated strip shear's
 #: leave-one-out scatter is 24 / 65 %, median / p90). The gripper target's twister, four
-#: FE rounds in stop 35, twisted 2.26-2.59 × the model's angle at a matched Ph every
+#: FE rounds in stop 35, twisted 2.26-2.61 × the model's angle at a matched Ph every
 #: round; clipped at 2, the correction could never reach the wanted 90° (117-216° in FE).
 MAGNITUDE_FACTOR_RANGE = (1.0 / 3.0, 3.0)
 QUANTITIES = ("start_pressure", "end_pressure", "magnitude")
