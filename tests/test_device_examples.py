@@ -21,6 +21,7 @@ for the fingers' Ph and the twister's Pc, 40 kPa for the twister's Ph); it is no
 FE-verified (its comments say why).
 """
 
+import itertools
 import json
 from pathlib import Path
 
@@ -155,7 +156,7 @@ def test_designed_devices_met_their_targets_in_fe(fe_file):
                 assert fe[q] == pytest.approx(want[q], rel=tol["pressure"]), (st["name"], q)
         assert fe["magnitude"] == pytest.approx(abs(want["magnitude"]),
                                                 rel=tol["magnitude"]), st["name"]
-    for before, after in zip(stages, stages[1:]):
+    for before, after in itertools.pairwise(stages):
         assert (after["check_model"]["start_pressure"]
                 >= (1 - tol["pressure"]) * before["check_model"]["end_pressure"])
 
