@@ -242,8 +242,8 @@ def test_a_motion_is_corrected_further_than_a_pressure():
     s = StageResult("twister", "twist", 30e3, 40e3, 0.8, 3, None, None, None, traced_to=pmax)
     for ratio, want in ((2.4, 2.4), (4.0, MAGNITUDE_FACTOR_RANGE[1]),
                         (0.2, MAGNITUDE_FACTOR_RANGE[0])):
-        c = StageResult("twister", "twist", 2.5 * 30e3, 2.5 * 40e3 if ratio > 1 else 39e3,
-                        0.8 * ratio, 3, None, None, None, traced_to=pmax)
+        c = StageResult("twister", "twist", 2.5 * 30e3, 2.5 * 40e3, 0.8 * ratio, 3, None,
+                        None, None, traced_to=pmax)
         [f] = correction_factors(Ev(s), Ev(c), pmax)
         assert f["magnitude"] == pytest.approx(want)
         assert f["start_pressure"] == FACTOR_RANGE[1]                 # 2.5 × clipped at 2
