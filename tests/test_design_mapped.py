@@ -265,3 +265,38 @@ def test_a_softer_checking_model_is_reached_by_tracing_further():
     # the stand-in's own completion pressure of the lifter is above max_pressure
     _, ph = _standin(best.candidate.cells[1])
     assert ph > pmax and 0.8 * ph == pytest.approx(best.stages[1].end, rel=1e-9)
+
+
+def test_a_corrected_design_keeps_its_stage_order_on_the_model_alone():
+    """FE in the loop scores designs on a corrected model; a design must then also come in
+    order on the model's own Pc (``<a>-><b>.model_order``), or its device example would
+    simulate with its stages swapped (the gripper's verified design, stop 36: twister
+    0.6 % before the fingers on the model, 7.7 % after in FE)."""
+    from multimorph.design._evaluate import Measured, score_measured
+
+    t = load("target_jar_lifter.toml")
+    r = design(t, model=STANDIN, settings=DesignSettings(budget=300, population=12, seed=2,
+                                                         graded=False))
+    best = r.best
+    a, b = best.stages
+    # the checker adds the constraint only where it corrects the model
+    assert not any(k.endswith("model_order") for k in model_checker(STANDIN)(t, [best])[0]
+                   .violations)
+    ones = tuple({"start_pressure": 1.0, "end_pressure": 1.0, "magnitude": 1.0}
+                 for _ in t.stages)
+    [same] = model_checker(STANDIN, ones)(t, [best])
+    key = f"{a.name}->{b.name}.model_order"
+    assert same.violations[key] == pytest.approx(same.violations[f"{a.name}->{b.name}.order"])
+    # measured (corrected) in order, the model's own Pc swapped: violated, not met
+    measured = [Measured(s.start, s.end, s.magnitude, s.n_cells, s.safety_factor,
+                         s.peak_stretch, s.failure, s.magnitude_at_max, traced_to=s.traced_to)
+                for s in best.stages]
+    plain = score_measured(t, best.candidate, measured)
+    swapped = score_measured(t, best.candidate, measured,
+                             model_starts=[1.2 * b.start, b.start])
+    kept = score_measured(t, best.candidate, measured, model_starts=[0.8 * b.start, b.start])
+    assert key not in plain.violations
+    assert swapped.violations[key] == pytest.approx(0.2 + 0.01)
+    assert not swapped.meets and swapped.objective > plain.objective
+    assert kept.violations[key] < 0 and kept.meets == plain.meets
+    assert kept.objective == pytest.approx(plain.objective)

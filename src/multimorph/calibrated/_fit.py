@@ -67,7 +67,7 @@ MODEL_MANIFEST = DATA_DIR / "model.json"
 KIND_SETS = {"bending": ("bending", "bending_narrow", "bending_single", "bending_single2",
                          "bending_mirror", "bending_narrow_mirror", "bending_single_mirror",
                          "bending_single2_mirror"),
-             "stretching": ("stretching_mirror", "stretching_narrow_mirror"),
+             "stretching": ("stretching_mirror", "stretching_narrow_mirror", "stretching2_mirror"),
              "twisting": ("twisting", "twisting2")}
 #: The kinds ``fit model`` fits by default. The twisting kind (shipped since stop 35) is a
 #: GP on the tilted FE cells whose inputs include the straight cell's calibrated features

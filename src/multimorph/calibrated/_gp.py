@@ -104,7 +104,8 @@ def _linear(x: np.ndarray, y: np.ndarray, ridge: float) -> np.ndarray:
 
 
 def fit_gp(x: np.ndarray, y: np.ndarray, mask: np.ndarray, *, fit_outputs: np.ndarray | None
-           = None, ridge: float = 1e-3, restarts: int = 3, seed: int = 0) -> MultiOutputGP:
+           = None, ridge: float = 1e-3, restarts: int = 3, seed: int = 0,
+           noise_bounds: tuple[float, float] = (1e-6, 1.0)) -> MultiOutputGP:
     """Fit a :class:`MultiOutputGP` to inputs ``x`` (n, k) and outputs ``y`` (n, m) known
     where ``mask`` (n, m).
 
@@ -137,7 +138,7 @@ def fit_gp(x: np.ndarray, y: np.ndarray, mask: np.ndarray, *, fit_outputs: np.nd
     rows = np.all(mask[:, cols], axis=1)
     kernel = (ConstantKernel(1.0, (1e-3, 1e3))
               * Matern(length_scale=np.ones(k), length_scale_bounds=(1e-2, 1e3), nu=2.5)
-              + WhiteKernel(1e-2, (1e-6, 1.0)))
+              + WhiteKernel(min(max(1e-2, noise_bounds[0]), noise_bounds[1]), noise_bounds))
     gpr = GaussianProcessRegressor(kernel, normalize_y=False, n_restarts_optimizer=restarts,
                                    random_state=seed)
     gpr.fit(x[rows], resid[np.ix_(rows, cols)])

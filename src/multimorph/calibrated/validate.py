@@ -45,6 +45,7 @@ CHECKS = (("bending", "bending"), ("bending", "bending_narrow"), ("bending", "be
           ("bending", "bending_single_mirror"), ("bending", "bending_single2_mirror"),
           ("bending", "grid24_mirror"), ("bending", "yeoh_mirror"),
           ("stretching", "stretching_mirror"), ("stretching", "stretching_narrow_mirror"),
+          ("stretching", "stretching2_mirror"),
           ("twisting", "twisting"), ("twisting", "twisting2"))
 
 

@@ -175,7 +175,8 @@ def _ratio(num: float | None, den: float | None) -> float | None:
 def model_checker(model: Any, correction: Correction | None = None) -> Checker:
     """A checker that scores designs with a batch model (e.g. the exact calibrated model),
     all designs in one call, each with the cell counts the search chose; ``correction``
-    (e.g. FE/model factors) applied to the model's values."""
+    (e.g. FE/model factors) applied to the model's values, and then the stages must also
+    come in order on the model's own values (``model_order`` of :func:`evaluate_one`)."""
 
     def check(target: TargetSpec, evs: Sequence[Evaluation]) -> list[Evaluation]:
         cells = [c for e in evs for c in e.candidate.model_cells(model)]
@@ -186,7 +187,8 @@ def model_checker(model: Any, correction: Correction | None = None) -> Checker:
         out = list(model(cells, trace_pmax(target.constraints.max_pressure, correction)))
         n = len(target.stages)
         return [evaluate_one(target, e.candidate, out[k * n:(k + 1) * n],
-                             fixed_cells=[s.n_cells for s in e.stages], correction=correction)
+                             fixed_cells=[s.n_cells for s in e.stages], correction=correction,
+                             model_order=True)
                 for k, e in enumerate(evs)]
 
     return check
