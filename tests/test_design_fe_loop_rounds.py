@@ -98,3 +98,45 @@ def test_each_round_is_corrected_by_its_own_designs_ratio(loop) -> None:
     for rd, corr in zip(r.fe_rounds[:-1], corrections, strict=True):
         assert all(corr[i][q] == pytest.approx(rd.factors[f"{st.name}.{q}"])
                    for i, st in enumerate(target.stages) for q in corr[i])
+
+
+def test_a_design_fe_verifies_but_the_model_swaps_is_not_the_end(loop, monkeypatch) -> None:
+    """FE meets the targets on round 0's design, but on the model alone its stages come in
+    the other order (as the gripper's first verified design, stop 37): the loop goes on, and
+    the design both agree on (round 1) is the result, though its FE objective is worse."""
+    target, first, checked, tmp_path = loop
+    second = replace(first, designs=[d for d in first.designs if d is not first.best][:1])
+    assert second.best is not None and second.best is not first.best
+
+    def fe_meets(folder, **kw):
+        def check(t, evs):
+            ev = evs[0]
+            checked.append(np.asarray(ev.candidate.x, float).copy())
+            worse = 1.0 + len(checked)              # each later design's FE objective higher
+            fe = evaluate_one(t, ev.candidate, ev.responses,
+                              fixed_cells=[s.n_cells for s in ev.stages])
+            return [replace(fe, meets=True, objective=worse)]
+        return check
+
+    real = _pipeline.rescore
+    calls = []
+
+    def swapped_first(t, ev):
+        calls.append(ev)
+        out = real(t, ev)
+        if len(calls) == 1:                         # round 0: the model swaps the stages
+            a, b = (s.name for s in t.stages)
+            out = replace(out, violations={**out.violations, f"{a}->{b}.order": 0.02})
+        return out
+
+    monkeypatch.setattr(_pipeline, "fe_checker", fe_meets)
+    monkeypatch.setattr(_pipeline, "rescore", swapped_first)
+    r = _pipeline._fe_loop(target, first, lambda **kw: second, fe_rounds=3, model=STANDIN,
+                           folder=tmp_path, mesh="coarse", wall_elements=None, stage=None,
+                           records=[])
+    assert len(r.fe_rounds) == 2                    # on past a verified, swapped round 0
+    assert r.fe_rounds[0].check.meets and r.fe_rounds[1].check.meets
+    assert r.fe_best.objective == r.fe_rounds[1].check.objective   # the agreed one
+    assert r.fe_best.objective > r.fe_rounds[0].check.objective
+    assert not _pipeline._agreed(r.fe_rounds[0].search, r.fe_rounds[0].check)
+    assert _pipeline._agreed(r.fe_rounds[1].search, r.fe_rounds[1].check)

@@ -195,6 +195,20 @@ def run_design(target: TargetSpec, settings: DesignSettings, *,
 FE_RADIUS = 0.1
 
 
+def _agreed(model: Evaluation, fe: Evaluation) -> bool:
+    """FE meets the targets and the model alone keeps the stage order (its ``.order``
+    constraints): a design its device file can stand for, since users simulate it on the
+    model (stop 37: the gripper's first FE-verified design swapped its stages there)."""
+    return fe.meets and all(v <= 0 for k, v in model.violations.items()
+                            if k.endswith(".order"))
+
+
+def _rank(model: Evaluation, fe: Evaluation) -> tuple[bool, bool, float]:
+    """The FE loop's best design: one both agree on (:func:`_agreed`) first, then one FE
+    verifies, then the FE objective."""
+    return (not _agreed(model, fe), not fe.meets, fe.objective)
+
+
 def _fe_loop(searched: TargetSpec, result: DesignResult, search: Callable[..., DesignResult],
              *, fe_rounds: int, model: Any, folder: Path, mesh: str,
              wall_elements: int | None, stage: Callable[[str], None] | None,
@@ -203,8 +217,10 @@ def _fe_loop(searched: TargetSpec, result: DesignResult, search: Callable[..., D
              ) -> DesignResult:
     """FE in the loop: device FE of the best design; where it misses, the model corrected
     by the FE/model ratio of the round's design (space mapping on the newest iterate) and
-    the search run again near the best FE-checked design. A round whose search returns a
-    design FE has already checked ends the loop: the same FE result would only repeat (a
+    the search run again near the best FE-checked design, until FE meets the targets on a
+    design whose stages also come in order on the model alone (:func:`_agreed`; the
+    corrected checker asks for that order too). A round whose search returns a design FE
+    has already checked ends the loop: the same FE result would only repeat (a
     round that moves away from the best one still corrects the next search: stop 34,
     where correcting by the best design's ratio alone ran the gripper's rounds 4–6 on one
     and the same design)."""
@@ -237,13 +253,13 @@ def _fe_loop(searched: TargetSpec, result: DesignResult, search: Callable[..., D
             stage(f"FE round {k}: {'module' if route == 'modules' else 'device'} FE of the "
                   "best design…")
         fe_ev = check(searched, [result.best])[0]
-        if best_fe is None or fe_ev.objective < best_fe[1].objective:
+        if best_fe is None or _rank(mine, fe_ev) < _rank(*best_fe):
             best_fe = (mine, fe_ev)
         nxt = correction_factors(mine, fe_ev, pmax)
         rounds.append(MappingRound(k, searched, correction, mine, fe_ev,
                                    flat_factors(searched, nxt), result.evaluations,
                                    time.perf_counter() - t0))
-        if best_fe[1].meets:
+        if _agreed(*best_fe):
             break
         correction = nxt
     assert best_fe is not None
