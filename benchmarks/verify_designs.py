@@ -9,7 +9,8 @@ Run from the repository root (prints a table; ``--json`` for machines)::
 
 Each target runs as a user runs it: ``multimorph design examples/target_<name>.toml
 --fe-rounds N --out benchmarks/runs/verify/<name>`` (default seed, the calibrated model, the
-``modules`` FE route). Its FE runs are kept in ``benchmarks/runs/verify/<name>.fe`` (commit
+``modules`` FE route; another ``--seed N`` runs into ``<name>-seedN``). Its FE runs are
+kept in ``benchmarks/runs/verify/<name>.fe`` (commit
 them: the next run re-uses every finished module, and an interrupted one resumes from its
 saved points). The table gives, per target, FE round and stage: the wanted start and end
 pressure and magnitude, the calibrated model's and the FE's, and whether the round's FE
@@ -41,8 +42,15 @@ def _mag(kind: str, v: float | None) -> str:
     return f"{100 * v:.0f} %" if kind == "stretch" else f"{v * 57.29577951308232:.0f}°"
 
 
-def rows_of(name: str) -> list[dict[str, Any]]:
+def run_name(name: str, seed: int) -> str:
+    """The run folder of a target and seed: ``<name>`` for seed 0 (the default), else
+    ``<name>-seed<N>`` (so another seed's run does not replace seed 0's)."""
+    return name if seed == 0 else f"{name}-seed{seed}"
+
+
+def rows_of(name: str, seed: int = 0) -> list[dict[str, Any]]:
     """The per-stage rows of every FE round of a finished run's report.json."""
+    name = run_name(name, seed)
     report = RUNS / name / "report.json"
     if not report.exists():
         return []
@@ -58,7 +66,7 @@ def rows_of(name: str) -> list[dict[str, Any]]:
 
 
 def run(name: str, fe_rounds: int, seed: int) -> dict[str, Any]:
-    out = RUNS / name
+    out = RUNS / run_name(name, seed)
     cmd = [sys.executable, "-m", "multimorph.cli", "design",
            str(ROOT / "examples" / f"target_{name}.toml"), "--fe-rounds", str(fe_rounds),
            "--seed", str(seed), "--out", str(out), "--json"]
@@ -80,7 +88,7 @@ EXAMPLE_OF = {"gripper": "gripper", "jar_lifter": "jar_lifter",
               "double_curvature": "double_curvature"}
 
 
-def publish(name: str) -> list[Path]:
+def publish(name: str, seed: int = 0) -> list[Path]:
     """Copy an FE-verified run into ``examples/designed``: ``<name>.toml`` (the device, its
     header saying how it was designed and verified), ``<name>.fe.json`` (the FE
     verification: every round, model vs FE per stage) and ``<name>.fe.png``; and, for a
@@ -88,12 +96,13 @@ def publish(name: str) -> list[Path]:
     model keeps its stage order (the examples are held to the model; a design the FE
     verified through a corrected model may sit a per cent on the other side of a hand-over
     on the model alone). Nothing for a run that is not FE-verified."""
-    run_dir = RUNS / name
+    run_dir = RUNS / run_name(name, seed)
     report_file = run_dir / "report.json"
     if not report_file.exists():
         return []
     r = json.loads(report_file.read_text())
-    if not r.get("fe_verified") or not (run_dir / "device.toml").exists():
+    # the device this run wrote (its report lists it), never one an earlier run left
+    if not r.get("fe_verified") or "device.toml" not in r.get("files", []):
         return []
     DESIGNED.mkdir(parents=True, exist_ok=True)
     rounds = r.get("fe_rounds", [])
@@ -172,8 +181,8 @@ def main(argv: list[str] | None = None) -> int:
              sorted(p.stem.removeprefix("target_") for p in
                     (ROOT / "examples").glob("target_*.toml")))
     runs = [] if args.table_only else [run(n, args.fe_rounds, args.seed) for n in names]
-    rows = [row for n in names for row in rows_of(n)]
-    published = {n: [str(p.relative_to(ROOT)) for p in publish(n)] for n in names} \
+    rows = [row for n in names for row in rows_of(n, args.seed)]
+    published = {n: [str(p.relative_to(ROOT)) for p in publish(n, args.seed)] for n in names} \
         if args.publish else {}
     if args.json:
         print(json.dumps({"runs": runs, "rows": rows, "published": published}, indent=2))

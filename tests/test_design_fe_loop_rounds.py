@@ -138,5 +138,22 @@ def test_a_design_fe_verifies_but_the_model_swaps_is_not_the_end(loop, monkeypat
     assert r.fe_rounds[0].check.meets and r.fe_rounds[1].check.meets
     assert r.fe_best.objective == r.fe_rounds[1].check.objective   # the agreed one
     assert r.fe_best.objective > r.fe_rounds[0].check.objective
-    assert not _pipeline._agreed(r.fe_rounds[0].search, r.fe_rounds[0].check)
-    assert _pipeline._agreed(r.fe_rounds[1].search, r.fe_rounds[1].check)
+    assert not _pipeline._agreed(r.fe_rounds[0].check, r.fe_rounds[0].search)
+    assert _pipeline._agreed(r.fe_rounds[1].check, r.fe_rounds[1].search)
+
+
+def test_every_model_alone_must_keep_the_order(loop) -> None:
+    """The FE loop asks the checking model and the search model (calibrated and
+    calibrated-fast: the demo and ``simulate`` run on the fast one) for the order: one of
+    them swapping the stages is enough to go on (the gripper's second FE-verified design,
+    stop 37: in order on the calibrated model, twister first on the fast one)."""
+    target, first, _, _ = loop
+    best = first.best
+    a, b = (s.name for s in target.stages)
+    fe = replace(best, meets=True)
+    swapped = replace(best, violations={**best.violations, f"{a}->{b}.order": 0.02})
+    in_order = replace(best, violations={**best.violations, f"{a}->{b}.order": -0.05})
+    assert _pipeline._agreed(fe, in_order, in_order)
+    assert not _pipeline._agreed(fe, in_order, swapped)
+    assert not _pipeline._agreed(replace(fe, meets=False), in_order)
+    assert _pipeline._rank(fe, True) < _pipeline._rank(replace(fe, objective=0.0), False)

@@ -32,8 +32,10 @@ EXIT_INFEASIBLE = 3
 #: Files every design run writes into its output folder (with its report's ``files``).
 FILES = ("report.json", "report.md", "report.html", "convergence.png")
 #: Files a run writes when it has them: the best device (``closest_device.toml`` when the
-#: target is infeasible) and its sequence, the robustness (``--robustness`` > 0) and the FE
-#: verification (``--verify-fe``) figures.
+#: target is infeasible and FE did not verify the design) and its sequence, the robustness
+#: (``--robustness`` > 0) and the FE verification (``--verify-fe``) figures. A run removes
+#: those an earlier run left in its folder and it did not write (a run that ends infeasible
+#: leaves no old ``device.toml`` beside its ``closest_device.toml``).
 SOMETIMES = ("device.toml", "closest_device.toml", "sequence.png", "robustness.png",
              "fe_verification.png")
 #: Option limits: a batch of population × stages cells is traced at once, and every
@@ -201,7 +203,7 @@ def design_command(
         header = (f"designed by 'multimorph design {target.name} --seed {seed} "
                   f"--budget {budget} --model {name}'" + ("" if result.feasible else
                                            "\nINFEASIBLE target: closest design only"))
-        with atomic_output_dir(folder) as tmp:
+        with atomic_output_dir(folder, stale=SOMETIMES) as tmp:
             report = write_design_report(run, tmp, header=header, model=name)
             _write_html(run, report, tmp, name)
         if as_json:

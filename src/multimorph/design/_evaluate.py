@@ -147,7 +147,8 @@ def _stage_curve(module: Module, resp: Response) -> tuple[np.ndarray, np.ndarray
 def evaluate_candidates(space: SearchSpace, cands: Sequence[Candidate],
                         responses: Sequence[Sequence[Any]]) -> list[Evaluation]:
     """Score candidates from their cell responses (``responses[k][i]``: stage i of design k)."""
-    return [evaluate_one(space.target, c, r, correction=space.correction)
+    return [evaluate_one(space.target, c, r, correction=space.correction,
+                         model_order=space.model_order)
             for c, r in zip(cands, responses, strict=True)]
 
 

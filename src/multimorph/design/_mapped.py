@@ -199,7 +199,8 @@ def mapped_design(target: TargetSpec, *, search_model: Any, check: Checker,
                   round_budget: float = 0.4, progress: Progress | None = None,
                   boxes: Any = None, radius: float = 0.15, checked: int = 8,
                   x0: Any = None, correction: Correction | None = None,
-                  polish_model: Any = None, polish_seconds: float = 20.0) -> DesignResult:
+                  polish_model: Any = None, polish_seconds: float = 20.0,
+                  model_order: bool = False) -> DesignResult:
     """Search on ``search_model``, check on ``check``, correct the model, search again.
 
     Parameters
@@ -233,6 +234,9 @@ def mapped_design(target: TargetSpec, *, search_model: Any, check: Checker,
         batch model (the checking model's own: e.g. the calibrated model) from the best
         checked design, one stage at a time, worst stage first — each probe changes one
         stage's cell, so it costs one cell — for at most ``polish_seconds``.
+    model_order : bool
+        The searches keep the stages in order on the search model's own Pc too, where they
+        correct it (FE in the loop; :func:`design`).
 
     Returns
     -------
@@ -266,7 +270,8 @@ def mapped_design(target: TargetSpec, *, search_model: Any, check: Checker,
                 progress(done, total, phase if _k == 0 else f"round {_k}: {phase}")
 
         res = design(searched, model=search_model, settings=st, progress=tell, x0=x0,
-                     radius=None if x0 is None else radius, correction=correction)
+                     radius=None if x0 is None else radius, correction=correction,
+                     model_order=model_order)
         last = res
         evaluations += res.evaluations
         calls += res.model_calls

@@ -446,7 +446,7 @@ def explain_design(space: SearchSpace, ev: Evaluation) -> list[str]:
 def design(target: TargetSpec, *, model: BatchModel | None = None,
            settings: DesignSettings | None = None, progress: Progress | None = None,
            x0: np.ndarray | None = None, radius: float | None = None,
-           correction: Any = None) -> DesignResult:
+           correction: Any = None, model_order: bool = False) -> DesignResult:
     """Search for devices whose predicted sequence meets ``target``.
 
     Parameters
@@ -468,6 +468,9 @@ def design(target: TargetSpec, *, model: BatchModel | None = None,
     correction : sequence of mapping, optional
         Per stage, factors on the model's Pc, Ph and motion before scoring (output space
         mapping, :func:`mapped_design`).
+    model_order : bool
+        With ``correction``: the stages must also come in order on the model's own,
+        uncorrected Pc (FE in the loop: the design's device file is simulated on the model).
 
     Returns
     -------
@@ -493,7 +496,8 @@ def design(target: TargetSpec, *, model: BatchModel | None = None,
     # a model with a bounded support (the calibrated one): search inside it
     boxes = counted.support_boxes()
     space = SearchSpace(target, boxes=boxes,
-                        correction=None if correction is None else tuple(correction))
+                        correction=None if correction is None else tuple(correction),
+                        model_order=model_order)
     rng = np.random.default_rng(settings.seed)
     history: list[float] = []
     archive: dict[bytes, Evaluation] = {}

@@ -103,6 +103,9 @@ class SearchSpace:
     correction: tuple[Mapping[str, float], ...] | None = field(default=None, compare=False)
     """Per stage, factors on the model's Pc, Ph and motion (see
     :func:`~multimorph.design.evaluate_one`); ``None``: the model as it is."""
+    model_order: bool = field(default=False, compare=False)
+    """With a ``correction``: the stages must also come in order on the model's own Pc
+    (``model_order`` of :func:`~multimorph.design.evaluate_one`; FE in the loop)."""
 
     @property
     def model_pmax(self) -> float:

@@ -11,7 +11,7 @@ import math
 import os
 import shutil
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import asdict, is_dataclass
 from pathlib import Path
@@ -23,12 +23,15 @@ __all__ = ["atomic_output_dir", "to_jsonable", "write_json"]
 
 
 @contextmanager
-def atomic_output_dir(path: str | os.PathLike[str], *, overwrite: bool = True) -> Iterator[Path]:
+def atomic_output_dir(path: str | os.PathLike[str], *, overwrite: bool = True,
+                      stale: Sequence[str] = ()) -> Iterator[Path]:
     """Yield a temporary folder; on success move its files into ``path`` (created if needed).
 
     Files are written to ``<parent>/.<name>.tmp-XXXX`` and each is renamed into ``path`` at
     the end (``os.replace``, atomic on one filesystem). On any exception the temporary folder
-    is removed and ``path`` is left as it was.
+    is removed and ``path`` is left as it was. ``stale``: file names (relative to ``path``)
+    that an earlier run may have left there and this one did not write; they are removed on
+    success (a design run that ends infeasible must not leave an old ``device.toml``).
     """
     final = Path(path)
     final.parent.mkdir(parents=True, exist_ok=True)
@@ -36,6 +39,7 @@ def atomic_output_dir(path: str | os.PathLike[str], *, overwrite: bool = True) -
     try:
         yield tmp
         final.mkdir(parents=True, exist_ok=True)
+        written = {p.relative_to(tmp).as_posix() for p in tmp.rglob("*") if p.is_file()}
         for item in sorted(tmp.rglob("*")):
             rel = item.relative_to(tmp)
             dest = final / rel
@@ -46,6 +50,9 @@ def atomic_output_dir(path: str | os.PathLike[str], *, overwrite: bool = True) -
                     raise FileExistsError(dest)
                 dest.parent.mkdir(parents=True, exist_ok=True)
                 os.replace(item, dest)
+        for name in stale:
+            if name not in written:
+                (final / name).unlink(missing_ok=True)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 
