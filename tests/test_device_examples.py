@@ -15,12 +15,12 @@ The jar lifter and the double curvature grasper are, since stop 33, the designs 
 ``examples/target_jar_lifter.toml`` and ``examples/target_double_curvature.toml`` verified
 in 3D FE (issue 19; examples/designed/): they are held to the calibrated model they were
 designed on and to their targets' pressures (the FE met them within 8 %). The gripper is,
-since stop 34, the calibrated design of ``examples/target_gripper.toml`` (seed 0; tuned by
-hand on the Ritz model before), held to the same model and its target's pressures (30 kPa
-for the fingers' Ph and the twister's Pc, 40 kPa for the twister's Ph); it is not
-FE-verified itself (its comments say why). The gripper target's FE-verified design (stop 36)
-is ``examples/designed/gripper.toml``: on the model alone its twister starts 0.6 % before
-its fingers, so it is not the example; its FE record is checked with the others below.
+since stop 37, the FE-verified design of ``examples/target_gripper.toml`` too (30 kPa for
+the fingers' Ph and the twister's Pc, 40 kPa for the twister's Ph; before, a calibrated
+design re-tuned by hand that FE had not checked). The FE loop now asks both calibrated
+variants to keep the stage order on their own (stop 36's verified design put the twister
+0.6 % before the fingers on the model), so the examples are held to the model's order and
+to their targets' pressures, and their FE records to the targets (below).
 """
 
 import itertools
@@ -58,6 +58,9 @@ def rate_fraction(strains, pressure):
     loading = strains.response.loading
     signal = strains.response.characteristic.signal   # the axial stretch for a stretching cell
     p, m = loading.pressure, np.abs(getattr(loading, signal))
+    # a snap on the loading curve repeats its pressure: one point per pressure
+    p, first = np.unique(p, return_index=True)
+    m = m[first]
     rate = np.gradient(m, p)
     return float(np.interp(pressure, p, rate) / np.max(rate))
 
@@ -99,8 +102,18 @@ def test_earlier_module_is_hardened_when_later_activates(case):
 
 
 def test_gripper_twists_after_its_fingers_have_bent():
-    # the fingers end their bend near 30 kPa; between 30 and 40 kPa the twister makes most
-    # of its turn while the hardened fingers add little (the paper's bend, then twist)
+    """The fingers end their bend near 30 kPa; from there to 40 kPa the twister turns faster
+    than it did before, while the hardened fingers add little (the paper's bend, then
+    twist), on the calibrated model the example was designed on. (The fast variant keeps
+    the order, fingers 28.0 then twister 28.3 kPa, the demo's test asserts it, but its
+    twister completes most of its snap by 30 kPa.)
+
+    Since stop 37 the example is the FE-verified design. On the model its twister has
+    turned 0.45 rad by 30 kPa (its Pc 30.5 kPa): a tilted cell's path is its straight
+    cell's, whose snap the model spreads over the tilted cell's Pc-Ph band, and its twist
+    at Ph is 39° where the FE's is 88° (docs/validation.md §2, docs/design.md). So the
+    model's twist is asked to be faster after 30 kPa than before it, not (as for the
+    hand-tuned gripper before) to make most of its turn there."""
     device = device_from_spec(load_toml(EXAMPLES / "gripper.toml"))
     result = simulate_device(device, cell_model=cell_model("calibrated"))
     tw, fi = result.strains["twister"], result.strains["fingers"]
@@ -108,7 +121,7 @@ def test_gripper_twists_after_its_fingers_have_bent():
     def at(s, p):
         return float(np.interp(p, s.pressure, s.measure))
 
-    assert at(tw, 40e3) - at(tw, 30e3) > 0.5 * at(tw, 40e3)
+    assert (at(tw, 40e3) - at(tw, 30e3)) / 10e3 > 1.5 * at(tw, 30e3) / 30e3
     assert at(fi, 40e3) - at(fi, 30e3) < 0.5 * at(fi, 40e3)
 
 

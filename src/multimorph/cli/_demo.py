@@ -26,13 +26,15 @@ FILES = ("report.md", "report.json", "silicone_fits.png")
 GRIPPER_FILES = ("gripper.toml", "summary.json", "sequence.png", "shapes.png", "morph.gif",
                  "report.html")
 
-#: How far each cell model of the demo is from 3D FE (docs/validation.md, held-out cells).
+#: How far each cell model of the demo is from 3D FE (docs/validation.md §3, held-out cells:
+#: the bending cells inside a module (bending_mirror, 88), the stretching cells
+#: (stretching_mirror) and the tilted cells (twisting and twisting2, 48); stop 36).
 MODEL_DISTANCE = {
     "calibrated-fast": "the Ritz model corrected against 3D FE, on emulated Ritz features; "
-                       "held-out |ΔPc|/Pc median 2.4 % on bending cells, 0.7 % on stretching "
-                       "cells, about 15 % on tilted (twisting) cells, docs/validation.md",
-    "calibrated": "the Ritz model corrected against 3D FE; held-out |ΔPc|/Pc median 1.4 % "
-                  "on bending cells, 1.1 % on stretching cells, about 16 % on tilted "
+                       "held-out |ΔPc|/Pc median 3.2 % on bending cells, 6.1 % on stretching "
+                       "cells, 9-11 % on tilted (twisting) cells, docs/validation.md",
+    "calibrated": "the Ritz model corrected against 3D FE; held-out |ΔPc|/Pc median 3.3 % "
+                  "on bending cells, 6.2 % on stretching cells, 4-12 % on tilted "
                   "(twisting) cells, docs/validation.md",
     "ritz": "the reduced model, about twice as stiff as FE (Pc about 2 × FE's)"}
 
