@@ -55,7 +55,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="refit only these kinds (bending, stretching, twisting) into the "
                          "shipped model, keeping the others and its emulators")
     sub.add_parser("twist-shear", help="fit the tilted cells' strip-shear factor on the "
-                   "shipped model (also done by 'model')")
+                   "shipped model (also done by 'model', unless its --kinds leave out "
+                   "bending and twisting)")
     args = ap.parse_args(argv)
     if args.what == "ritz-table":
         from multimorph.calibrated._ritz_table import build_ritz_table
@@ -74,7 +75,10 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    fit_twist_shear()
+    # the strip-shear factor reads the tilted cells and their straight (bending) cells: a
+    # refit of other kinds alone keeps it (stop 37: `--kinds stretching` had refitted it)
+    if not args.kinds or {"bending", "twisting"} & set(args.kinds):
+        fit_twist_shear()
     return 0
 
 
