@@ -201,8 +201,10 @@ def design_command(
             err_console.print(f"[yellow]warning:[/] {run.simulation_error}")
         result = run.result
         header = (f"designed by 'multimorph design {target.name} --seed {seed} "
-                  f"--budget {budget} --model {name}'" + ("" if result.feasible else
-                                           "\nINFEASIBLE target: closest design only"))
+                  f"--budget {budget} --model {name}'" + (
+                      "" if result.feasible else
+                      "\nthe model alone misses a target; 3D FE meets them all (FE-verified)"
+                      if result.fe_verified else "\nINFEASIBLE target: closest design only"))
         with atomic_output_dir(folder, stale=SOMETIMES) as tmp:
             report = write_design_report(run, tmp, header=header, model=name)
             _write_html(run, report, tmp, name)
