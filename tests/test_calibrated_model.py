@@ -190,3 +190,21 @@ def test_the_bending_model_answers_as_inside_a_module_and_knows_the_plate_level(
     assert len(ratio) >= 0.8 * len(rows)
     assert np.median(err_m) < 0.10 and np.median(err_p) < 0.10
     assert np.median(ratio) < 0.95
+
+
+def test_a_design_rounded_onto_a_box_edge_is_inside_and_beyond_it_is_not() -> None:
+    """A device file writes lengths to 0.01 mm, which can move a group designed on the
+    box's edge 0.06 % past it (the gripper's fingers: ht/d 0.1601 for 0.16, stop 37): that
+    is inside (EDGE_RTOL); 1 % past the edge is outside, and named."""
+    from multimorph.calibrated._box import EDGE_RTOL
+
+    box = load_model().kinds["bending"].box
+    j = box.names.index("ht/d")
+    groups = dict(zip(box.names, 0.5 * (box.low + box.high), strict=True))
+    assert box.outside(groups) == {}
+    hi = float(box.high[j])
+    assert box.outside({**groups, "ht/d": hi * 1.0006}) == {}
+    assert box.outside({**groups, "ht/d": hi * (1 + 0.9 * EDGE_RTOL)}) == {}
+    out = box.outside({**groups, "ht/d": hi * 1.01})
+    assert list(out) == ["ht/d"] and out["ht/d"][2] == pytest.approx(hi)
+    assert box.outside({**groups, "ht/d": float(box.low[j]) * 0.99}) != {}
