@@ -9,6 +9,7 @@ completes (:func:`multimorph.design.graded_target`).
 from __future__ import annotations
 
 import math
+import re
 import tomllib
 from dataclasses import replace
 from pathlib import Path
@@ -56,7 +57,8 @@ def test_narrow_bands_and_parallel_copies_are_kept():
         t = load(name)                                  # bands 1.25 and 1.24
         assert graded_target(t) is t
     t = load("target_three_stage.toml")                # bands 1.22 and 1.22
-    assert graded_target(t) is t
+    t = replace(t, stages=(t.stages[0], replace(t.stages[1], parts=1), t.stages[2]))
+    assert graded_target(t) is t                        # its curl asks for 2 parts: not here
     wide = replace(t, stages=(t.stages[0], replace(t.stages[1], start_pressure=25e3,
                                                    end_pressure=40e3), t.stages[2]))
     assert [s.name for s in graded_target(wide).stages] == ["extend", "curl-1", "curl-2",
@@ -115,3 +117,43 @@ def test_graded_design_reports_the_stage_as_a_whole():
     assert "twister-1.end_pressure" not in d and "twister-2.start_pressure" not in d
     boundary = r.target.stages[2].start_pressure                  # √(30 · 50) kPa
     assert d["twister-2.handover"] == pytest.approx((b.start - a.end) / boundary / 0.1)
+
+
+def test_a_stage_asks_for_its_parts():
+    """``parts = N`` grades a band narrower than ``graded_ratio`` into N parts (the three-
+    stage target's curl: 27-33 kPa, 1.22, as two bending modules); the parts split the band
+    geometrically and share the magnitude, as the ratio's parts do."""
+    t = load("target_three_stage.toml")
+    curl = t.stages[1]
+    assert curl.parts == 2 and curl.end_pressure / curl.start_pressure < GRADED_RATIO
+    g = graded_target(t)
+    assert [s.name for s in g.stages] == ["extend", "curl-1", "curl-2", "turn"]
+    a, b = g.stages[1:3]
+    assert a.end_pressure == pytest.approx(math.sqrt(27e3 * 33e3)) == b.start_pressure
+    assert a.magnitude + b.magnitude == pytest.approx(curl.magnitude)
+    assert a.parts == b.parts == 1 and a.part_of == b.part_of == "curl"
+    # the band's width still wins where it asks for more parts than ``parts``
+    assert len([s for s in graded_target(t, max_ratio=1.05).stages
+                if s.part_of == "curl"]) == 5
+
+
+@pytest.mark.parametrize(("extra", "match"), [
+    ('parts = 0', "parts: must be a whole number from 1 to 4"),
+    ('parts = 5', "parts: must be a whole number from 1 to 4"),
+    ('parts = 1.5', "parts: must be a whole number"),
+    ('parts = true', "parts: must be a whole number"),
+])
+def test_bad_parts_are_refused(extra, match):
+    text = re.sub(r"(?m)^parts = 2", extra, (EXAMPLES / "target_three_stage.toml").read_text())
+    with pytest.raises(SpecError, match=match):
+        target_from_spec(tomllib.loads(text))
+
+
+def test_parts_need_a_band_and_no_copies():
+    text = (EXAMPLES / "target_three_stage.toml").read_text()
+    single = re.sub(r'band = \["27 kPa", "33 kPa"\]', 'pressure = "33 kPa"', text)
+    with pytest.raises(SpecError, match=r"\(curl\)\.parts: graded parts split a band"):
+        target_from_spec(tomllib.loads(single))
+    copies = re.sub(r"(?m)^parts = 2", "parts = 2\ncount = 2", text)
+    with pytest.raises(SpecError, match=r"\(curl\)\.parts: a stage with parallel copies"):
+        target_from_spec(tomllib.loads(copies))

@@ -183,3 +183,29 @@ def test_a_cell_where_the_calibrated_model_is_unsure_does_not_meet_the_target():
     assert unsure.violations["lifter.support"] == pytest.approx(0.13 / SUPPORT_SIGMA - 1)
     assert unsure.objective > plain.objective and not unsure.meets
     assert any("uncertainty" in line for line in explain_design(space, unsure))
+
+
+def test_a_tilted_cell_has_its_own_support_limit():
+    """The tilted cells' anchors are a sparser fit: their own held-out FE designs have σ of
+    log Pc 0.097 median and 0.12 at most (stop 38), so their limit is 0.12, not the 0.08 of
+    bending and stretching cells. A σ of 0.10 is inside on a twisting stage and outside on
+    a bending one, and the explanation names the kind's own limit."""
+    from multimorph.design import evaluate_one
+    from multimorph.design._evaluate import SUPPORT_SIGMA, support_sigma
+    from multimorph.design._optimise import explain_design
+
+    assert support_sigma("twisting") == pytest.approx(0.12)
+    assert support_sigma("bending") == support_sigma("stretching") == SUPPORT_SIGMA == 0.08
+    target = load("target_gripper.toml")            # fingers (bending), twister (twisting)
+    space = SearchSpace(target)
+    cand = space.decode(np.full(space.dim, 0.5))
+    resps = STANDIN(list(cand.cells), target.constraints.max_pressure)
+    banded = [r.with_meta(calibration={"critical_pressure_range": [
+        (r.characteristic.critical or 1e5) * math.exp(-0.10),
+        (r.characteristic.critical or 1e5) * math.exp(0.10)]}) for r in resps]
+    ev = evaluate_one(target, cand, banded, fixed_cells=[4, 2])
+    assert ev.violations["fingers.support"] == pytest.approx(0.10 / 0.08 - 1)
+    assert ev.violations["twister.support"] == pytest.approx(0.10 / 0.12 - 1)
+    lines = [line for line in explain_design(space, ev) if "uncertainty" in line]
+    assert lines == ["fingers: the cell model's Pc uncertainty exceeds 8% (the cell sits "
+                     "where the calibration has few FE designs) by 25%"]

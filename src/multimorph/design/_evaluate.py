@@ -123,6 +123,21 @@ class Evaluation:
 #: the model extrapolates: the jar lifter's lifter designed at four box edges had 0.13 and
 #: its FE Pc was 81 kPa against the model's 117 kPa (docs/design.md).
 SUPPORT_SIGMA = 0.08
+#: The same per module kind where it differs (:func:`support_sigma`). The tilted cells'
+#: anchors are a sparser fit (178 training designs over 12 inputs, Pc labels flat-topped:
+#: docs/validation.md §4): on their own held-out FE designs (twisting 25, twisting2 20) the
+#: fast variant's σ of log Pc has median 0.097-0.098, p90 0.107-0.112 and largest 0.120,
+#: so 0.08 ruled out 75-88 % of the cells the calibration was checked on, and the
+#: designer was pushed to a corner of the tilted box (stop 37: three-stage seeds 2-4 ended
+#: infeasible on this constraint alone). 0.12 flags what lies beyond every held-out design.
+#: Bending's held-out p90 is 0.073 and stretching's 0.041 (stop 38): 0.08 for both.
+SUPPORT_SIGMA_KIND = {"twisting": 0.12}
+
+
+def support_sigma(kind: str) -> float:
+    """Largest σ of log Pc a designed cell of module ``kind`` may have (:data:`SUPPORT_SIGMA`,
+    :data:`SUPPORT_SIGMA_KIND`)."""
+    return SUPPORT_SIGMA_KIND.get(kind, SUPPORT_SIGMA)
 
 
 def _log_sigma(r: Response) -> float | None:
@@ -300,7 +315,8 @@ def score_measured(target: TargetSpec, cand: Candidate, measured: Sequence[Measu
             viol[f"{stage.name}.safety_factor"] = ((con.min_safety_factor - m.safety_factor)
                                                    / con.min_safety_factor)
         if m.uncertainty is not None:
-            viol[f"{stage.name}.support"] = (m.uncertainty - SUPPORT_SIGMA) / SUPPORT_SIGMA
+            top = support_sigma(stage.module_kind)
+            viol[f"{stage.name}.support"] = (m.uncertainty - top) / top
         stages.append(StageResult(stage.name, stage.kind, pc, ph, m.magnitude, m.n_cells,
                                   m.safety_factor, m.peak_stretch, m.failure, errs,
                                   m.magnitude_at_max, m.traced_to))

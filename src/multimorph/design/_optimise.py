@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from multimorph.design._evaluate import SUPPORT_SIGMA, Evaluation, evaluate_candidates
+from multimorph.design._evaluate import Evaluation, evaluate_candidates, support_sigma
 from multimorph.design._gradient import GradientStep, gradient_refine
 from multimorph.design._models import BatchModel, CountingModel, rom_batch_model
 from multimorph.design._space import N_VARS, VAR_NAMES, SearchSpace
@@ -425,16 +425,18 @@ def explain_design(space: SearchSpace, ev: Evaluation) -> list[str]:
                 got = sr.end if what == "end_pressure" else sr.start
                 out.append(f"stage {stage!r} {what.replace('_', ' ')} {got / 1e3:.4g} kPa vs "
                            f"wanted {want / 1e3:.4g} kPa ({rel:+.0%}, tolerance ±{tolv:.0%})")
+    kinds = {stage.name: stage.module_kind for stage in t.stages}
     for key, v in ev.violations.items():
         if v > 0:
             what = key.rsplit(".", 1)[1]
+            limit = support_sigma(kinds.get(key.rsplit(".", 1)[0], ""))
             text = {"order": "stage order violated (the later stage starts first)",
                     "separation": "min_separation violated (the stages overlap)",
                     "safety_factor": "min_safety_factor violated (walls too close to break "
                                      "at max_pressure)",
                     "length": "max_length violated (device too long)",
                     "support": "the cell model's Pc uncertainty exceeds "
-                               f"{SUPPORT_SIGMA:.0%} (the cell sits where the calibration "
+                               f"{limit:.0%} (the cell sits where the calibration "
                                "has few FE designs)"}.get(what, what)
             out.append(f"{key.rsplit('.', 1)[0]}: {text} by {v:.0%}")
     bind = _binding(space, ev)

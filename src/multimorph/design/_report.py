@@ -148,10 +148,11 @@ def report_markdown(result: DesignResult, robust: RobustnessReport | None = None
                      f"{_fmt_mag(stage.kind, sr.magnitude_at_max)} |")
         graded = result.graded_stages()
         if graded:
-            L += ["", f"Graded stages (bands wider than Ph/Pc = {result.settings.graded_ratio:.3g} "
-                  "are realised by modules of the same kind in series, each with its own "
-                  "cell; the stage starts at its first part's Pc and completes at its last "
-                  "part's Ph):", "",
+            ratio = result.settings.graded_ratio
+            L += ["", f"Graded stages (bands wider than Ph/Pc = {ratio:.3g}, "
+                  "and stages that ask for `parts`, are realised by modules of the same kind "
+                  "in series, each with its own cell; the stage starts at its first part's "
+                  "Pc and completes at its last part's Ph):", "",
                   "| stage | parts | wanted start | start | wanted end | end | wanted | "
                   "predicted | met |", "|---|---|---|---|---|---|---|---|---|"]
             kinds = {value.name: value.kind for value in t.stages}

@@ -15,6 +15,7 @@ TOML form (units as strings; bare numbers SI)::
     kind = "twist"
     angle = "60 deg"
     band = ["30 kPa", "50 kPa"]    # … or starts (Pc) and completes (Ph) within a band
+    parts = 2                      # optional: realise the band by 2 graded modules
 
     [constraints]
     max_pressure = "60 kPa"        # supply pressure; the device is traced up to it
@@ -55,7 +56,10 @@ __all__ = ["GRADED_RATIO", "GRADED_RATIO_CALIBRATED", "STAGE_KINDS", "Constraint
 #: Stage kinds and the module kind that realises each.
 STAGE_KINDS = {"bend": "bending", "twist": "twisting", "stretch": "stretching"}
 
-_STAGE_KEYS = {"kind", "name", "angle", "stretch", "pressure", "band", "count", "shaft_radius"}
+_STAGE_KEYS = {"kind", "name", "angle", "stretch", "pressure", "band", "count", "shaft_radius",
+               "parts"}
+#: Most graded parts one stage may ask for (``parts``).
+MAX_PARTS = 4
 _CONSTRAINT_KEYS = {"max_pressure", "materials", "min_wall", "max_length", "max_width",
                     "max_height", "min_separation", "min_safety_factor"}
 
@@ -82,6 +86,9 @@ class Stage:
     part_of : str or None
         Set on the parts of a graded stage (:func:`graded_target`): the name of the wanted
         stage this part realises.
+    parts : int
+        Graded modules in series that realise the band (:func:`graded_target`); 1: as many
+        as the band's width asks for (usually one).
     """
 
     kind: str
@@ -92,6 +99,7 @@ class Stage:
     count: int = 1
     shaft_radius: float = 5e-3
     part_of: str | None = None
+    parts: int = 1
 
     @property
     def module_kind(self) -> str:
@@ -259,8 +267,18 @@ def _stage(i: int, raw: Any) -> Stage:
         else 5e-3
     if "shaft_radius" in raw and kind != "twist":
         raise SpecError(f"{where}.shaft_radius: only twist stages have a shaft")
+    parts = raw.get("parts", 1)
+    if isinstance(parts, bool) or not isinstance(parts, int) or not 1 <= parts <= MAX_PARTS:
+        raise SpecError(f"{where}.parts: must be a whole number from 1 to {MAX_PARTS}, got "
+                        f"{parts!r}")
+    if parts > 1 and start is None:
+        raise SpecError(f"{where}.parts: graded parts split a band; give 'band' = [start, "
+                        "end] instead of 'pressure'")
+    if parts > 1 and count > 1:
+        raise SpecError(f"{where}.parts: a stage with parallel copies (count = {count}) is "
+                        "not graded; give one of 'parts' or 'count'")
     return Stage(kind=kind, magnitude=mag, end_pressure=end, start_pressure=start, name=name,
-                 count=count, shaft_radius=shaft)
+                 count=count, shaft_radius=shaft, parts=parts)
 
 
 def target_from_spec(spec: Mapping[str, Any]) -> TargetSpec:
@@ -386,7 +404,10 @@ def graded_target(target: TargetSpec, max_ratio: float = GRADED_RATIO) -> Target
     each part contributes 1/n of the wanted magnitude. The parts are ordinary stages named
     ``"<stage>-1"``, ``"<stage>-2"``, … with ``part_of`` set; the stage's start is its first
     part's, its completion its last part's, its magnitude their sum. Stages with parallel
-    copies (``count > 1``) and single-pressure stages are kept whole.
+    copies (``count > 1``) and single-pressure stages are kept whole. A stage that asks for
+    ``parts`` (> 1) gets at least that many, whatever its band's width: in 3D FE a bending
+    module activates within Ph/Pc 1.03-1.08 (stop 37), so a 27-33 kPa band (1.22) leaves
+    one module a window of about ±2.5 % on its Pc, where two graded ones each span theirs.
 
     Parameters
     ----------
@@ -405,15 +426,16 @@ def graded_target(target: TargetSpec, max_ratio: float = GRADED_RATIO) -> Target
     for stage in target.stages:
         s0 = stage.start_pressure
         ratio = stage.end_pressure / s0 if s0 else 1.0
-        if s0 is None or stage.count > 1 or ratio <= max_ratio * (1.0 + 1e-9):
+        if s0 is None or stage.count > 1 or (ratio <= max_ratio * (1.0 + 1e-9)
+                                             and stage.parts <= 1):
             out.append(stage)
             continue
-        n = math.ceil(math.log(ratio) / math.log(max_ratio) - 1e-9)
+        n = max(stage.parts, math.ceil(math.log(ratio) / math.log(max_ratio) - 1e-9))
         edges = [s0 * ratio ** (k / n) for k in range(n + 1)]
         for k in range(n):
             out.append(replace(stage, name=f"{stage.name}-{k + 1}", magnitude=stage.magnitude / n,
                                start_pressure=edges[k], end_pressure=edges[k + 1],
-                               part_of=stage.name))
+                               part_of=stage.name, parts=1))
     if len(out) == len(target.stages):
         return target
     names = [part.name for part in out]
