@@ -14,6 +14,7 @@ import tomllib
 from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from multimorph.design import (
@@ -157,3 +158,26 @@ def test_parts_need_a_band_and_no_copies():
     copies = re.sub(r"(?m)^parts = 2", "parts = 2\ncount = 2", text)
     with pytest.raises(SpecError, match=r"\(curl\)\.parts: a stage with parallel copies"):
         target_from_spec(tomllib.loads(copies))
+
+
+def test_a_graded_stage_is_scored_on_its_parts_sum():
+    """The motion of a graded stage is what its parts do together: the last part carries
+    the distance of their sum from the stage's magnitude, an earlier part none of its own
+    (stop 38: in FE the curl's two parts turned 35° and 56° for 45° each, 91° for 90°)."""
+    from multimorph.design import SearchSpace, evaluate_one
+    from multimorph.design._optimise import explain_design
+
+    t = graded_target(load("target_three_stage.toml"))
+    space = SearchSpace(t)
+    cand = space.decode(np.random.default_rng(1).random(space.dim))   # two bending parts
+    resps = STANDIN(list(cand.cells), t.constraints.max_pressure)
+    ev = evaluate_one(t, cand, resps, fixed_cells=[3, 3, 3, 3])
+    a, b = (next(s for s in ev.stages if s.name == n) for n in ("curl-1", "curl-2"))
+    assert "curl-1.magnitude" not in ev.distances
+    whole = math.radians(90.0)
+    assert ev.distances["curl-2.magnitude"] == pytest.approx(
+        (a.magnitude + b.magnitude - whole) / whole / t.tolerance.magnitude)
+    assert a.magnitude > 1.5 * b.magnitude > 0                # unequal parts (161°, 96°)
+    assert ev.distances["curl-2.magnitude"] > 1                # 257° for 90°: explained
+    assert any(line.startswith("stage 'curl' (curl-1 + curl-2) magnitude 257 deg vs wanted "
+                               "90 deg") for line in explain_design(space, ev))

@@ -7,6 +7,7 @@ be checked independently: its cells' recomputed pressures must meet the targets.
 import itertools
 import math
 import tomllib
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -39,6 +40,9 @@ def load(name):
 ])
 def test_examples_met_with_standin(name, graded):
     wanted = load(name)
+    # the stand-in cell has no ends, so a module of any count answers like its cells
+    # (the default min_cells = 3 is about real modules' ends; test_design_spec)
+    wanted = replace(wanted, constraints=replace(wanted.constraints, min_cells=1))
     n = len(graded_target(wanted).stages) if graded else len(wanted.stages)
     settings = DesignSettings(budget=900 if n == 2 else 2400, population=16, seed=3,
                               graded=graded)

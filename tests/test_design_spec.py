@@ -55,6 +55,28 @@ def test_units_and_defaults():
     assert c.separation_relative and c.min_separation == -0.10
     assert t.tolerance.pressure == 0.10 and t.tolerance.magnitude == 0.15
     assert [m.name for m in c.materials] == ["ecoflex-00-30", "dragon-skin-10"]
+    assert c.min_cells == 3                         # default: modules of 3 cells or more
+    assert parse(BASE.replace('max_pressure = "60 kPa"',
+                              'max_pressure = "60 kPa"\nmin_cells = 1')).constraints.min_cells == 1
+
+
+def test_a_module_has_at_least_min_cells():
+    """``cells_for``: the cells that give the wanted angle, but never fewer than
+    ``min_cells`` (a module of one or two cells is mostly ends, which the cell models do not
+    describe) nor more than ``max_length`` leaves; a stretch stage (its magnitude does not
+    depend on the count) gets ``min_cells``."""
+    from multimorph.design._space import cells_for
+
+    a = parse(BASE).stages[0]                       # a 90° bend
+    per = math.radians(45.0)
+    assert cells_for(a, per, max_cells=10) == 2      # 90 / 45: the angle alone
+    assert cells_for(a, per, max_cells=10, min_cells=3) == 3
+    assert cells_for(a, math.radians(10.0), max_cells=10, min_cells=3) == 9
+    assert cells_for(a, per, max_cells=2, min_cells=3) == 2     # what max_length leaves
+    stretch = parse(BASE.replace('angle = "90 deg"', 'stretch = "50 %"', 1)
+                    .replace('kind = "bend"', 'kind = "stretch"', 1)).stages[0]
+    assert cells_for(stretch, 0.5, max_cells=10) == 1
+    assert cells_for(stretch, 0.5, max_cells=10, min_cells=3) == 3
 
 
 def test_separation_forms_and_inline_material():
@@ -91,6 +113,12 @@ def test_separation_forms_and_inline_material():
      "[constraints]: unknown key(s) max_widht"),
     ('kind = "twist"', 'kind = "twist"\nshaft = 3', "unknown key(s) shaft"),
     ('[target]', '[targte]', "unknown top-level key(s) targte"),
+    ('max_pressure = "60 kPa"', 'max_pressure = "60 kPa"\nmin_cells = 0',
+     "constraints.min_cells: must be a whole number from 1 to 20, got 0"),
+    ('max_pressure = "60 kPa"', 'max_pressure = "60 kPa"\nmin_cells = 2.5',
+     "constraints.min_cells: must be a whole number"),
+    ('max_pressure = "60 kPa"', 'max_pressure = "60 kPa"\nmin_cells = "3"',
+     "constraints.min_cells: must be a whole number"),
 ])
 def test_precise_errors(old, new, message):
     assert old in BASE

@@ -415,10 +415,15 @@ def explain_design(space: SearchSpace, ev: Evaluation) -> list[str]:
             rel = d * tolv
             if what == "magnitude":
                 unit = "%" if wanted.kind == "stretch" else "deg"
-                got = sr.magnitude * 100 if wanted.kind == "stretch" else math.degrees(sr.magnitude)
-                want = (abs(wanted.magnitude) * 100 if wanted.kind == "stretch"
-                        else math.degrees(abs(wanted.magnitude)))
-                out.append(f"stage {stage!r} magnitude {got:.3g} {unit} vs wanted {want:.3g} "
+                scale = 100.0 if wanted.kind == "stretch" else math.degrees(1.0)
+                label = repr(stage)
+                got, want = sr.magnitude * scale, abs(wanted.magnitude) * scale
+                if wanted.part_of is not None:        # a graded stage: its parts' sum
+                    names = [p.name for p in t.stages if p.part_of == wanted.part_of]
+                    label = f"{wanted.part_of!r} ({' + '.join(names)})"
+                    got = scale * sum(r.magnitude for r in ev.stages if r.name in names)
+                    want = scale * sum(abs(p.magnitude) for p in t.stages if p.name in names)
+                out.append(f"stage {label} magnitude {got:.3g} {unit} vs wanted {want:.3g} "
                            f"{unit} ({rel:+.0%}, tolerance ±{tolv:.0%})")
             else:
                 want = wanted.end_pressure if what == "end_pressure" else wanted.start_pressure

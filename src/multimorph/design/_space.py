@@ -310,12 +310,16 @@ def _decode_in_box(u: np.ndarray, box: Any, space: SearchSpace, sym: bool,
     return cell, (im, ib)
 
 
-def cells_for(stage: Stage, per_cell: float, *, max_cells: int) -> int:
-    """Cells in series that give the stage's angle, from the motion of one cell (rad)."""
+def cells_for(stage: Stage, per_cell: float, *, max_cells: int, min_cells: int = 1) -> int:
+    """Cells in series that give the stage's angle, from the motion of one cell (rad), and
+    at least ``min_cells`` (``constraints.min_cells``: the cell models answer a cell inside
+    a module; a stretch stage's magnitude does not depend on the count), at most
+    ``max_cells`` (what ``max_length`` leaves)."""
+    top = max(max_cells, 1)
     if stage.kind == "stretch" or not (per_cell > 0 and math.isfinite(per_cell)):
-        return 1
+        return int(min(max(min_cells, 1), top))
     n = round(abs(stage.magnitude) / per_cell)
-    return int(min(max(n, 1), max(max_cells, 1)))
+    return int(min(max(n, min_cells, 1), top))
 
 
 def build_device(target: TargetSpec, cand: Candidate, n_cells: Sequence[int],
