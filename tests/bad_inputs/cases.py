@@ -468,6 +468,12 @@ def design_cases() -> Iterator[Case]:
     yield case("unknown-key", "top-table", "[target]", "[targets]", "targets")
     yield case("unknown-key", "shaft-on-bend", "count = 3 ", 'count = 3\nshaft_radius = "5 mm"'
                " ", "shaft_radius")
+    yield case("sign", "min-cells-zero", "min_safety_factor = 1.2",
+               "min_safety_factor = 1.2\nmin_cells = 0", "constraints.min_cells")
+    yield case("huge", "parts-9", 'band = ["30 kPa", "40 kPa"]',
+               'band = ["30 kPa", "40 kPa"]\nparts = 9', "parts")
+    yield case("unknown-key", "parts-with-count", "count = 3 ", "count = 3\nparts = 2 ",
+               "parts")
     yield from _file_cases(cmd, text.encode(), name, argv, toml=True)
     files = ((name, text.encode()),)
     for what, extra, expect in (
