@@ -327,8 +327,8 @@ def score_measured(target: TargetSpec, cand: Candidate, measured: Sequence[Measu
             viol[f"{stage.name}.safety_factor"] = ((con.min_safety_factor - m.safety_factor)
                                                    / con.min_safety_factor)
         if m.uncertainty is not None:
-            top = support_sigma(stage.module_kind)
-            viol[f"{stage.name}.support"] = (m.uncertainty - top) / top
+            limit = support_sigma(stage.module_kind)
+            viol[f"{stage.name}.support"] = (m.uncertainty - limit) / limit
         stages.append(StageResult(stage.name, stage.kind, pc, ph, m.magnitude, m.n_cells,
                                   m.safety_factor, m.peak_stretch, m.failure, errs,
                                   m.magnitude_at_max, m.traced_to))
