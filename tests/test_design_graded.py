@@ -181,3 +181,30 @@ def test_a_graded_stage_is_scored_on_its_parts_sum():
     assert ev.distances["curl-2.magnitude"] > 1                # 257° for 90°: explained
     assert any(line.startswith("stage 'curl' (curl-1 + curl-2) magnitude 257 deg vs wanted "
                                "90 deg") for line in explain_design(space, ev))
+
+
+def test_every_graded_part_must_move():
+    """Scored on their sum, the parts must each still move by half their share at least
+    (``<part>.share``): a part of 2° in a 90° curl (45° its share) violates it, parts of
+    161° and 96° do not (three-stage seed 3 had put 13 cells turning 4.7° first)."""
+    from multimorph.design import SearchSpace, evaluate_one
+    from multimorph.design._evaluate import MIN_PART_SHARE
+    from multimorph.design._optimise import explain_design
+
+    t = graded_target(load("target_three_stage.toml"))
+    space = SearchSpace(t)
+    for seed, still in ((0, "curl-2"), (1, None)):
+        cand = space.decode(np.random.default_rng(seed).random(space.dim))
+        resps = STANDIN(list(cand.cells), t.constraints.max_pressure)
+        ev = evaluate_one(t, cand, resps, fixed_cells=[3, 3, 3, 3])
+        for part in ("curl-1", "curl-2"):
+            sr = next(s for s in ev.stages if s.name == part)
+            share = MIN_PART_SHARE * math.radians(45.0)
+            assert ev.violations[f"{part}.share"] == pytest.approx((share - sr.magnitude)
+                                                                   / share)
+            assert (ev.violations[f"{part}.share"] > 0) == (part == still)
+        assert "extend.share" not in ev.violations and "turn.share" not in ev.violations
+        if still:
+            assert not ev.meets
+            assert any(line.startswith(f"{still}: a graded part that hardly moves")
+                       for line in explain_design(space, ev))

@@ -440,6 +440,8 @@ def explain_design(space: SearchSpace, ev: Evaluation) -> list[str]:
                     "safety_factor": "min_safety_factor violated (walls too close to break "
                                      "at max_pressure)",
                     "length": "max_length violated (device too long)",
+                    "share": "a graded part that hardly moves (under half its share of the "
+                             "stage's motion)",
                     "support": "the cell model's Pc uncertainty exceeds "
                                f"{limit:.0%} (the cell sits where the calibration "
                                "has few FE designs)"}.get(what, what)
