@@ -433,8 +433,8 @@ def explain_design(space: SearchSpace, ev: Evaluation) -> list[str]:
     kinds = {stage.name: stage.module_kind for stage in t.stages}
     for key, v in ev.violations.items():
         if v > 0:
-            what = key.rsplit(".", 1)[1]
-            limit = support_sigma(kinds.get(key.rsplit(".", 1)[0], ""))
+            name, what = key.rsplit(".", 1)
+            limit = support_sigma(kinds.get(name, "")) if what == "support" else 0.0
             text = {"order": "stage order violated (the later stage starts first)",
                     "separation": "min_separation violated (the stages overlap)",
                     "safety_factor": "min_safety_factor violated (walls too close to break "
@@ -445,7 +445,7 @@ def explain_design(space: SearchSpace, ev: Evaluation) -> list[str]:
                     "support": "the cell model's Pc uncertainty exceeds "
                                f"{limit:.0%} (the cell sits where the calibration "
                                "has few FE designs)"}.get(what, what)
-            out.append(f"{key.rsplit('.', 1)[0]}: {text} by {v:.0%}")
+            out.append(f"{name}: {text} by {v:.0%}")
     bind = _binding(space, ev)
     if bind:
         out.append("active bounds of the closest design: " + " | ".join(bind))

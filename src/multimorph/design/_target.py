@@ -70,9 +70,8 @@ MAX_PARTS = 4
 MIN_CELLS = 3
 #: Largest ``constraints.min_cells`` a spec may ask for.
 MAX_MIN_CELLS = 20
-_CONSTRAINT_KEYS = {"min_cells",
-                    "max_pressure", "materials", "min_wall", "max_length", "max_width",
-                    "max_height", "min_separation", "min_safety_factor"}
+_CONSTRAINT_KEYS = {"max_pressure", "materials", "min_wall", "max_length", "max_width",
+                    "max_height", "min_separation", "min_safety_factor", "min_cells"}
 
 
 @dataclass(frozen=True)
@@ -216,6 +215,13 @@ def _fraction(v: Any, where: str, *, signed: bool = False) -> float:
     return x
 
 
+def _whole(v: Any, where: str, top: int) -> int:
+    """A whole number from 1 to ``top`` (a bool is not one)."""
+    if isinstance(v, bool) or not isinstance(v, int) or not 1 <= v <= top:
+        raise SpecError(f"{where}: must be a whole number from 1 to {top}, got {v!r}")
+    return v
+
+
 def _length(v: Any, where: str) -> float:
     x = to_si(v, "m", field=where)
     if not (math.isfinite(x) and x > 0):
@@ -273,18 +279,12 @@ def _stage(i: int, raw: Any) -> Stage:
         if not end > start:
             raise SpecError(f"{where}.band: the end {band[1]!r} must exceed the start "
                             f"{band[0]!r}")
-    count = raw.get("count", 1)
-    if isinstance(count, bool) or not isinstance(count, int) or not 1 <= count <= MAX_COPIES:
-        raise SpecError(f"{where}.count: must be a whole number from 1 to {MAX_COPIES}, got "
-                        f"{count!r}")
+    count = _whole(raw.get("count", 1), f"{where}.count", MAX_COPIES)
     shaft = _length(raw["shaft_radius"], f"{where}.shaft_radius") if "shaft_radius" in raw \
         else 5e-3
     if "shaft_radius" in raw and kind != "twist":
         raise SpecError(f"{where}.shaft_radius: only twist stages have a shaft")
-    parts = raw.get("parts", 1)
-    if isinstance(parts, bool) or not isinstance(parts, int) or not 1 <= parts <= MAX_PARTS:
-        raise SpecError(f"{where}.parts: must be a whole number from 1 to {MAX_PARTS}, got "
-                        f"{parts!r}")
+    parts = _whole(raw.get("parts", 1), f"{where}.parts", MAX_PARTS)
     if parts > 1 and start is None:
         raise SpecError(f"{where}.parts: graded parts split a band; give 'band' = [start, "
                         "end] instead of 'pressure'")
@@ -383,11 +383,7 @@ def target_from_spec(spec: Mapping[str, Any]) -> TargetSpec:
                             f"got {v!r}")
         kw["min_safety_factor"] = float(v)
     if "min_cells" in con:
-        v = con["min_cells"]
-        if isinstance(v, bool) or not isinstance(v, int) or not 1 <= v <= MAX_MIN_CELLS:
-            raise SpecError(f"constraints.min_cells: must be a whole number from 1 to "
-                            f"{MAX_MIN_CELLS}, got {v!r}")
-        kw["min_cells"] = v
+        kw["min_cells"] = _whole(con["min_cells"], "constraints.min_cells", MAX_MIN_CELLS)
     constraints = Constraints(**kw)
 
     tol_raw = spec.get("tolerance", {})
