@@ -158,3 +158,108 @@ def test_every_model_alone_must_keep_the_order(loop) -> None:
     assert not _pipeline._agreed(fe, in_order, swapped)
     assert not _pipeline._agreed(replace(fe, meets=False), in_order)
     assert _pipeline._rank(fe, True) < _pipeline._rank(replace(fe, objective=0.0), False)
+
+
+def test_fe_screening_tries_other_cells_of_the_stage_fe_misses(loop, monkeypatch) -> None:
+    """FE screening (stop 39): the stand-in FE makes the search's cell of the first stage
+    50 % stiffer and answers every other cell as the model does. With ``screen = 2`` the
+    round also checks two other cells of the stage FE then misses most (and only of that
+    stage: the other stage's cell stays), keeps the design FE finds best, and records
+    both."""
+    from multimorph.design._mapped import stage_score
+    from multimorph.design._space import N_VARS
+
+    target, first, checked, tmp_path = loop
+    best = first.best
+    x_best = np.asarray(best.candidate.x, float)
+    bad = x_best[:N_VARS].copy()
+
+    def stiff(ev):
+        x = np.asarray(ev.candidate.x, float)
+        factor = 1.5 if np.allclose(x[:N_VARS], bad) else 1.0
+        return evaluate_one(target, ev.candidate, _stiffer(ev.responses[:1], factor)
+                            + list(ev.responses[1:]),
+                            fixed_cells=[s.n_cells for s in ev.stages])
+
+    def fe(folder, **kw):
+        def check(t, evs):
+            checked.append(np.asarray(evs[0].candidate.x, float).copy())
+            return [stiff(evs[0])]
+        return check
+
+    fe_first = stiff(best)
+    scores = [stage_score(fe_first, i, target) for i in range(len(target.stages))]
+    i = int(np.argmax(scores))
+    cut = slice(i * N_VARS, (i + 1) * N_VARS)
+    kept_out = [j for j in range(len(x_best)) if not cut.start <= j < cut.stop]
+    monkeypatch.setattr(_pipeline, "fe_checker", fe)
+    r = _pipeline._fe_loop(target, first, lambda **kw: first, fe_rounds=0, model=STANDIN,
+                           folder=tmp_path, mesh="coarse", wall_elements=None, stage=None,
+                           records=[], screen=2)
+    [rd] = r.fe_rounds
+    assert len(checked) == 3 and len(rd.screened) == 2
+    for x in checked[1:]:      # only that stage's cell moved, to a cell FE had not checked
+        np.testing.assert_allclose(x[kept_out], x_best[kept_out])
+        assert np.max(np.abs(x[cut] - x_best[cut])) >= _pipeline.SCREEN_DISTANCE
+    assert all(s["stage"] == target.stages[i].name for s in rd.screened)
+    kept = [s for s in rd.screened if s["kept"]]
+    assert len(kept) <= 1
+    # the round's design is the best FE found: the search's or the screened one kept
+    assert rd.check.objective == pytest.approx(min(
+        [fe_first.objective] + [s["fe_objective"] for s in rd.screened]))
+    if kept:
+        assert rd.check.objective == pytest.approx(kept[0]["fe_objective"])
+    assert "screened" in rd.to_dict() and "x" not in rd.to_dict()["screened"][0]
+
+
+def test_no_screening_where_fe_meets(loop, monkeypatch) -> None:
+    target, first, checked, tmp_path = loop
+
+    def fe_meets(folder, **kw):
+        def check(t, evs):
+            ev = evs[0]
+            checked.append(np.asarray(ev.candidate.x, float).copy())
+            fe = evaluate_one(t, ev.candidate, ev.responses,
+                              fixed_cells=[s.n_cells for s in ev.stages])
+            return [replace(fe, meets=True)]
+        return check
+
+    monkeypatch.setattr(_pipeline, "fe_checker", fe_meets)
+    r = _pipeline._fe_loop(target, first, lambda **kw: first, fe_rounds=2, model=STANDIN,
+                           folder=tmp_path, mesh="coarse", wall_elements=None, stage=None,
+                           records=[], screen=2)
+    assert len(checked) == 1 and r.fe_rounds[0].screened == ()
+
+
+def test_a_modules_fe_is_keyed_by_the_module_not_the_device() -> None:
+    """The ``modules`` route keeps each module's FE under a key of the module as written,
+    its end and the FE settings (stop 39), so that a design sharing a module with one FE
+    has checked (the FE screening's designs, a later round) re-uses it: the same twister
+    in two devices has one key; another wall, count, tilt or setting another."""
+    import math
+    import tomllib
+    from pathlib import Path
+
+    from multimorph.design._fe_check import module_description, module_key
+    from multimorph.device import device_from_spec
+
+    spec = tomllib.loads((Path(__file__).parents[1] / "examples" / "gripper.toml").read_text())
+    dev = device_from_spec(spec)
+    twister = next(m for m in dev.modules if m.kind == "twisting")
+    options = {"mesh": "coarse", "p_max": 55e3}
+    d = module_description(twister, "strip")
+    assert d["kind"] == "twisting" and d["tilt"] == pytest.approx(twister.tilt)
+    assert d["cell"]["top_wall"] == pytest.approx(twister.cell.top_wall)
+    assert d["material"]["name"] == twister.cell.material.name
+    key = module_key(d, options)
+    # the same module in another device (renamed, the other modules gone): the same key
+    alone = device_from_spec({**spec, "module": [
+        {**m, "name": "other"} for m in spec["module"] if m["name"] == twister.name]})
+    assert module_key(module_description(alone.modules[0], "strip"), options) == key
+    changed = [
+        {**d, "cell": {**d["cell"], "top_wall": d["cell"]["top_wall"] * 1.01}},
+        {**d, "cells": d["cells"] + 1}, {**d, "tilt": d["tilt"] + math.radians(1.0)},
+        {**d, "end": "shaft"}]
+    keys = {module_key(c, options) for c in changed} | {module_key(d, {**options,
+                                                                        "p_max": 60e3})}
+    assert key not in keys and len(keys) == 5

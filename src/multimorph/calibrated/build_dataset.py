@@ -34,7 +34,8 @@ ORDER = ("grid24", "yeoh", "bending_narrow", "stretching_narrow", "bending_singl
          "bending_single2",
          "stretching", "twisting", "bending", "stretching_mirror", "stretching_narrow_mirror",
          "bending_single2_mirror", "grid24_mirror", "yeoh_mirror", "bending_mirror",
-         "bending_single_mirror", "bending_narrow_mirror", "twisting2", "stretching2_mirror")
+         "bending_single_mirror", "bending_narrow_mirror", "twisting2", "stretching2_mirror",
+         "twisting_narrow")
 
 
 def _log(msg: str) -> None:

@@ -98,6 +98,11 @@ def design_command(
                            "(one tilted cell of its strips in FE, twisted by the module's "
                            "shaft kinematics; default, minutes) or shaft (its strips on the "
                            "shaft as one FE problem; hours on 2 cores).")] = "strip",
+    fe_screen: Annotated[int, typer.Option(
+        "--fe-screen", min=0, max=8,
+        help="FE in the loop on the modules route: where FE misses, also check up to N "
+             "other cells of the stage FE misses most (one module's FE each, minutes); the "
+             "best one FE finds stays in the round's design (0: none).")] = 2,
     vectorised: Annotated[bool, typer.Option(
         "--vectorised", help="Trace each batch with the vmapped ROM (default: a loop of "
         "single-design traces, faster on small CPUs today).")] = False,
@@ -193,7 +198,7 @@ def design_command(
                              robustness_samples=robustness,
                              fe_rounds=(fe_rounds or 0) if verify_fe else None,
                              fe_folder=Path(str(folder) + ".fe"), fe_mesh=fe_mesh,
-                             fe_route=fe_route, fe_twist=fe_twist,
+                             fe_route=fe_route, fe_twist=fe_twist, fe_screen=fe_screen,
                              progress=lambda done, total, phase: update(
                                  min(done, total), total, phase=f"search: {phase}"),
                              stage=lambda text: update(None, phase=text))

@@ -273,11 +273,11 @@ def fe_checker(folder: str | Path, *, mesh: str = "coarse",
                               "max_volume_ratio": ratio, "dx_max": dx_max}
         # (the modules route's measure: since stop 27 a free tip's bend is read without the
         # edge under its end wall; earlier results are not re-used)
-        key = _fingerprint(ev, {**kw, "wall_elements": wall_elements,
-                                "definitions": DEFINITIONS_VERSION,
-                                **({"route": route, "tip": "inner-edge",
-                                    **({"twist": twist} if twist != "shaft" else {})}
-                                   if route != "device" else {})})
+        options = {**kw, "wall_elements": wall_elements, "definitions": DEFINITIONS_VERSION,
+                   **({"route": route, "tip": "inner-edge",
+                       **({"twist": twist} if twist != "shaft" else {})}
+                      if route != "device" else {})}
+        key = _fingerprint(ev, options)
         if wall_elements is not None:
             from dataclasses import replace as _replace
 
@@ -298,7 +298,7 @@ def fe_checker(folder: str | Path, *, mesh: str = "coarse",
         ckpt = None
         if route == "modules":
             rows, stats = _modules_route(target, ev, kw, folder, key, progress,
-                                         wall_elements, twist)
+                                         wall_elements, twist, options)
             label = "module FE"
             points = sum(int(st["points"]) for st in stats.values())
             top = min(r["top_pressure"] for r in rows)
@@ -348,11 +348,15 @@ def _save(path: Path, saved: dict[str, Any]) -> None:
 def _modules_route(target: TargetSpec, ev: Evaluation, kw: dict[str, Any], folder: Path,
                    key: str, progress: Callable[[str], None] | None,
                    wall_elements: int | None = None, twist: str = "strip",
+                   options: dict[str, Any] | None = None,
                    ) -> tuple[list[dict[str, Any]], dict[str, dict[str, Any]]]:
     """Each stage's module inflated on its own (the ``modules`` route): its rows as
     :func:`fe_measure` gives them and each run's statistics. Every finished module is kept
-    in ``<key>.modules/<module>.json`` and a running one's points beside it
-    (``<module>.resume``), so an interrupted check resumes module by module."""
+    in ``modules/<module key>.json`` (the key: the module as written, its end and the FE
+    settings, :func:`module_key`; another design with the same module re-uses it) and a
+    running one's points beside it (``<module key>.resume``), so an interrupted check
+    resumes module by module. Modules of earlier runs, kept per design in
+    ``<key>.modules/<module>.json``, are re-used too."""
     import time
     from dataclasses import replace
 
@@ -372,14 +376,19 @@ def _modules_route(target: TargetSpec, ev: Evaluation, kw: dict[str, Any], folde
         end = module_end(device, stage.name)
         if module.kind == "twisting":
             end = "strip" if twist == "strip" else "shaft"
-        part = folder / f"{key}.modules" / f"{_slug(stage.name)}-{end}.json"
+        legacy = folder / f"{key}.modules" / f"{_slug(stage.name)}-{end}.json"
+        described = module_description(module, end)
+        mkey = module_key(described, options if options is not None else kw)
+        part = folder / "modules" / f"{mkey}.json"
         part.parent.mkdir(parents=True, exist_ok=True)
-        if part.exists():
-            saved = json.loads(part.read_text())
-            rows.append(saved["row"])
+        found = next((f for f in (part, legacy) if f.exists()), None)
+        if found is not None:
+            saved = json.loads(found.read_text())
+            rows.append({**saved["row"], "name": stage.name})
             stats[stage.name] = saved["stats"]
             if progress is not None:
-                progress(f"module FE {key}: {stage.name} finished earlier, re-used")
+                progress(f"module FE {mkey if found is part else key}: {stage.name} "
+                         "finished earlier, re-used")
             continue
         t0 = time.perf_counter()
         last = [0.0]
@@ -394,7 +403,7 @@ def _modules_route(target: TargetSpec, ev: Evaluation, kw: dict[str, Any], folde
         if progress is not None:
             progress(f"module FE {key}: {stage.name} ({module.kind}, {module.n_cells} cells) "
                      f"to {pmax / 1e3:.4g} kPa")
-        ckpt = PathCheckpoint(part.with_suffix(".resume"), f"{key}-{stage.name}")
+        ckpt = PathCheckpoint(part.with_suffix(".resume"), mkey)
         if module.kind == "twisting" and twist == "strip":
             settings = FESettings(**{**kw, "half": False,
                                      "max_steps": min(kw["max_steps"], MODULE_MAX_STEPS),
@@ -433,8 +442,9 @@ def _modules_route(target: TargetSpec, ev: Evaluation, kw: dict[str, Any], folde
                           if module.kind != "twisting" else 1 if twist == "strip" else
                           module.n_cells)
         st["module_cells"] = module.n_cells
-        _save(part, {"format": FE_CHECK_FORMAT, "key": key, "module": stage.name,
-                     "row": row, "stats": st})
+        _save(part, {"format": FE_CHECK_FORMAT, "key": mkey, "device_key": key,
+                     "module": stage.name, "description": described, "row": row,
+                     "stats": st})
         ckpt.clear()
         rows.append(row)
         stats[stage.name] = st
@@ -469,6 +479,44 @@ def strip_twist_response(module: Any, cell_response: Any) -> Any:
                           signal="twist_rate",
                           meta={**cell_response.meta, "module": module.name,
                                 "kind": module.kind, "fe_twist": "strip"})
+
+
+#: The cell's lengths a module's FE depends on (with its materials, kind, count and end).
+_CELL_LENGTHS = ("length", "width", "height", "top_wall", "bottom_wall", "side_wall",
+                 "end_wall")
+
+
+def module_description(module: Any, end: str) -> dict[str, Any]:
+    """What a module's FE on the ``modules`` route depends on, as plain data (SI): its
+    cell's lengths and materials (law, parameters, stretch at break), its kind and cell
+    count, its end (:func:`module_end`; ``strip``/``shaft`` for a twisting module) and a
+    twisting module's tilt, shaft radius and strips. Kept with each module's FE result, so
+    a later fit can read the FE-checked cells (the tilted ones are the FE data set's cell:
+    one tilted cell tied to a plate, its mesh)."""
+    c = module.cell
+    mats = []
+    for m in (c.material, c.bottom_material):
+        mats.append(None if m is None else {
+            "name": m.name, "model": m.model,
+            "params": {k: float(v) for k, v in sorted(m.params.items())},
+            "break_stretch": None if m.break_stretch is None else float(m.break_stretch)})
+    out: dict[str, Any] = {"kind": module.kind, "cells": int(module.n_cells), "end": end,
+                           "cell": {k: float(getattr(c, k)) for k in _CELL_LENGTHS},
+                           "material": mats[0], "bottom_material": mats[1]}
+    if module.kind == "twisting":
+        out.update(tilt=float(module.tilt), shaft_radius=float(module.shaft_radius),
+                   strips=int(module.strips))
+    return out
+
+
+def module_key(description: dict[str, Any], options: dict[str, Any]) -> str:
+    """The key of one module's FE (:func:`module_description` and the FE settings)."""
+    from multimorph import __version__
+
+    h = hashlib.sha256(json.dumps(description, sort_keys=True).encode())
+    h.update(json.dumps({**options, "version": __version__}, sort_keys=True,
+                        default=str).encode())
+    return "m" + h.hexdigest()[:15]
 
 
 def module_end(device: Any, name: str) -> str:

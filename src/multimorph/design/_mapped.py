@@ -88,6 +88,10 @@ class MappingRound:
         Search-model evaluations of the round.
     wall_time : float
         Seconds, search and check.
+    screened : tuple of dict
+        FE in the loop: the other cells of the stage FE missed most that the round also
+        checked in FE (``_pipeline._screen_stage``): per cell, the stage, its FE Pc, Ph
+        and motion, and whether it replaced the search's cell in the round's design.
     """
 
     index: int
@@ -98,6 +102,7 @@ class MappingRound:
     factors: dict[str, float]
     evaluations: int
     wall_time: float
+    screened: tuple[dict[str, Any], ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         stages = []
@@ -113,11 +118,14 @@ class MappingRound:
                 "check_model": {"start_pressure": c.start, "end_pressure": c.end,
                                 "magnitude": c.magnitude},
                 "cells": c.n_cells})
-        return {"round": self.index, "meets_targets": bool(self.check.meets),
-                "objective_search": self.search.objective,
-                "objective_check": self.check.objective, "factors": dict(self.factors),
-                "evaluations": self.evaluations, "wall_time": self.wall_time,
-                "stages": stages}
+        out = {"round": self.index, "meets_targets": bool(self.check.meets),
+               "objective_search": self.search.objective,
+               "objective_check": self.check.objective, "factors": dict(self.factors),
+               "evaluations": self.evaluations, "wall_time": self.wall_time,
+               "stages": stages}
+        if self.screened:
+            out["screened"] = [dict(s) for s in self.screened]
+        return out
 
 
 def correction_factors(search: Evaluation, check: Evaluation, p_max: float,

@@ -87,7 +87,7 @@ def run_design(target: TargetSpec, settings: DesignSettings, *,
                fe_rounds: int | None = None, fe_folder: Path | None = None,
                fe_mesh: str = "coarse", fe_wall_elements: int | None = None,
                fe_max_steps: int = 400, fe_route: str = "modules",
-               fe_twist: str = "strip") -> DesignRun:
+               fe_twist: str = "strip", fe_screen: int = 0) -> DesignRun:
     """Design a device for ``target``, then check the best design.
 
     Parameters
@@ -125,6 +125,10 @@ def run_design(target: TargetSpec, settings: DesignSettings, *,
         On the ``modules`` route, a twisting module as one tilted cell of its strips with
         the module's shaft kinematics (default), or its strips on the shaft in one FE
         problem (:data:`~multimorph.design.TWIST_ROUTES`).
+    fe_screen : int
+        FE in the loop on the ``modules`` route: where FE misses, check up to this many
+        other cells of the stage it misses most in FE too (one module's FE each;
+        ``_fe_loop``). 0: none.
     stage : callable, optional
         ``stage(description)`` when a later step begins (robustness, FE check).
 
@@ -168,7 +172,8 @@ def run_design(target: TargetSpec, settings: DesignSettings, *,
                           mesh=fe_mesh, wall_elements=fe_wall_elements,
                           max_steps=fe_max_steps, stage=stage,
                           records=fe_records, route=fe_route, twist=fe_twist,
-                          order_models=[fast] if fast is not None else [])
+                          order_models=[fast] if fast is not None else [],
+                          screen=fe_screen)
     result = replace(result, target=searched, wanted=wanted)
     target = result.target            # the searched stages (graded parts included)
     best = result.best
@@ -219,7 +224,7 @@ def _fe_loop(searched: TargetSpec, result: DesignResult, search: Callable[..., D
              wall_elements: int | None, stage: Callable[[str], None] | None,
              records: list[Any], max_steps: int = 400, route: str = "modules",
              twist: str = "strip", order_models: Sequence[Any] = (),
-             ) -> DesignResult:
+             screen: int = 0) -> DesignResult:
     """FE in the loop: device FE of the best design; where it misses, the model corrected
     by the FE/model ratio of the round's design (space mapping on the newest iterate) and
     the search run again near the best FE-checked design, until FE meets the targets on a
@@ -228,7 +233,14 @@ def _fe_loop(searched: TargetSpec, result: DesignResult, search: Callable[..., D
     has already checked ends the loop: the same FE result would only repeat (a
     round that moves away from the best one still corrects the next search: stop 34,
     where correcting by the best design's ratio alone ran the gripper's rounds 4–6 on one
-    and the same design)."""
+    and the same design).
+
+    ``screen`` (the ``modules`` route): where FE misses, the stage it misses most is
+    checked in FE with up to this many other cells too (:func:`_screen_stage`): each
+    module's FE is its own, so a design whose other stages FE has measured costs one
+    module's FE, and a stage whose cells FE contradicts (the three-stage target's twist,
+    stop 38: no hardening knee in FE on the cells the search kept proposing) is tried on
+    cells the next round would not reach."""
     check = fe_checker(folder, mesh=mesh, wall_elements=wall_elements, max_steps=max_steps,
                        route=route, twist=twist,
                        progress=(lambda text: stage(text)) if stage is not None else None,
@@ -239,6 +251,7 @@ def _fe_loop(searched: TargetSpec, result: DesignResult, search: Callable[..., D
     best_fe: tuple[Evaluation, Evaluation, bool] | None = None
     correction = None
     checked: list[np.ndarray] = []
+    tried: dict[int, list[np.ndarray]] = {}
     for k in range(fe_rounds + 1):
         t0 = time.perf_counter()
         if k > 0:
@@ -262,12 +275,20 @@ def _fe_loop(searched: TargetSpec, result: DesignResult, search: Callable[..., D
         # the other models' own view (the search model), uncorrected, for the stage order
         views = [model_checker(m)(searched, [result.best])[0] for m in order_models]
         agreed = _agreed(fe_ev, mine, *views)
+        screened: list[dict[str, Any]] = []
+        if screen > 0 and route == "modules" and not agreed:
+            mine, fe_ev, agreed, screened = _screen_stage(
+                searched, result, mine, fe_ev, agreed, check, model, order_models,
+                screen, tried, stage=stage, tag=f"FE round {k}: ")
+            checked.extend(np.asarray(e["x"], float) for e in screened)
         if best_fe is None or _rank(fe_ev, agreed) < _rank(best_fe[1], best_fe[2]):
             best_fe = (mine, fe_ev, agreed)
         nxt = correction_factors(mine, fe_ev, pmax)
         rounds.append(MappingRound(k, searched, correction, mine, fe_ev,
                                    flat_factors(searched, nxt), result.evaluations,
-                                   time.perf_counter() - t0))
+                                   time.perf_counter() - t0,
+                                   tuple({q: v for q, v in e.items() if q != "x"}
+                                         for e in screened)))
         if best_fe[2]:
             break
         correction = nxt
@@ -276,6 +297,80 @@ def _fe_loop(searched: TargetSpec, result: DesignResult, search: Callable[..., D
     return replace(result, fe_rounds=tuple(rounds), fe_best=best_fe[1], fe_route=route,
                    fe_twist=twist if route == "modules" else None,
                    designs=[best_fe[0], *others])
+
+
+#: Two cells of a stage closer than this (unit coordinates, any variable) are one cell to
+#: the FE screening (:func:`_screen_stage`).
+SCREEN_DISTANCE = 0.03
+
+
+def _screen_stage(target: TargetSpec, result: DesignResult, mine: Evaluation,
+                  fe_ev: Evaluation, agreed: bool, check: Callable[..., list[Evaluation]],
+                  model: Any, order_models: Sequence[Any], n: int,
+                  tried: dict[int, list[np.ndarray]], *,
+                  stage: Callable[[str], None] | None = None, tag: str = "",
+                  ) -> tuple[Evaluation, Evaluation, bool, list[dict[str, Any]]]:
+    """FE screening of the stage FE misses most: the round's design with that stage's cell
+    replaced by up to ``n`` other cells of the search's ranked designs (the best for that
+    stage as the search scored them, none within :data:`SCREEN_DISTANCE` of a cell FE
+    has already checked for it, ``tried``), each checked in FE — on the ``modules`` route
+    only that stage's module is new. The design with the best FE result (:func:`_rank`)
+    is the round's. Returns its (model view, FE, agreed) and one record per screened
+    cell."""
+    from multimorph.design._evaluate import evaluate_one
+    from multimorph.design._mapped import stage_score
+    from multimorph.design._space import N_VARS, SearchSpace
+
+    S = len(target.stages)
+    misses = {i: stage_score(fe_ev, i, target) for i in range(S)}
+    i = max(misses, key=lambda j: misses[j])
+    if misses[i] <= 0.0:
+        return mine, fe_ev, agreed, []
+    cut = slice(i * N_VARS, (i + 1) * N_VARS)
+    base = np.asarray(mine.candidate.x, float)
+    seen = tried.setdefault(i, [])
+    seen.append(base[cut].copy())
+    picks: list[tuple[np.ndarray, int]] = []
+    for d in sorted(result.designs, key=lambda d: stage_score(d, i, target)):
+        z = np.asarray(d.candidate.x, float)[cut]
+        if any(float(np.max(np.abs(z - w))) < SCREEN_DISTANCE for w in seen):
+            continue
+        seen.append(z.copy())
+        picks.append((z, d.stages[i].n_cells))
+        if len(picks) >= n:
+            break
+    space = SearchSpace(target, boxes=model.support_boxes()
+                        if callable(getattr(model, "support_boxes", None)) else None)
+    best = (mine, fe_ev, agreed)
+    name = target.stages[i].name
+    log: list[dict[str, Any]] = []
+    for z, n_cells in picks:
+        x = base.copy()
+        x[cut] = z
+        cand = space.decode(x)
+        out = list(model(cand.model_cells(model), target.constraints.max_pressure))
+        counts = [s.n_cells for s in mine.stages]
+        counts[i] = n_cells
+        alt = evaluate_one(target, cand, out, fixed_cells=counts)
+        if alt.device is None:
+            continue
+        if stage is not None:
+            stage(f"{tag}FE screening of stage {name}: another cell")
+        fe_alt = check(target, [alt])[0]
+        views = [model_checker(m)(target, [alt])[0] for m in order_models]
+        ok = _agreed(fe_alt, alt, *views)
+        st = fe_alt.stages[i]
+        log.append({"stage": name, "x": x, "fe_start_pressure": st.start,
+                    "fe_end_pressure": st.end, "fe_magnitude": st.magnitude,
+                    "model_start_pressure": alt.stages[i].start,
+                    "model_end_pressure": alt.stages[i].end,
+                    "model_magnitude": alt.stages[i].magnitude,
+                    "fe_objective": fe_alt.objective, "kept": False})
+        if _rank(fe_alt, ok) < _rank(best[1], best[2]):
+            best = (alt, fe_alt, ok)
+            for e in log:
+                e["kept"] = e is log[-1]
+    return (*best, log)
 
 
 def write_design_report(run: DesignRun, folder: Path, *, header: str,
