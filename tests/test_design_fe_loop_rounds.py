@@ -169,7 +169,10 @@ def test_fe_screening_tries_other_cells_of_the_stage_fe_misses(loop, monkeypatch
     from multimorph.design._mapped import stage_score
     from multimorph.design._space import N_VARS
 
-    target, first, checked, tmp_path = loop
+    target, _, checked, tmp_path = loop
+    # one module per stage (no graded parts): the report below reads the design's cells
+    first = design(target, model=STANDIN, settings=DesignSettings(
+        budget=400, population=8, seed=0, graded=False, top=12))
     best = first.best
     x_best = np.asarray(best.candidate.x, float)
     bad = x_best[:N_VARS].copy()
@@ -210,6 +213,10 @@ def test_fe_screening_tries_other_cells_of_the_stage_fe_misses(loop, monkeypatch
     if kept:
         assert rd.check.objective == pytest.approx(kept[0]["fe_objective"])
     assert "screened" in rd.to_dict() and "x" not in rd.to_dict()["screened"][0]
+    from multimorph.design._report import report_markdown
+
+    md = report_markdown(replace(r, fe_route="modules"))
+    assert "FE screening" in md and md.count(f"| 0 | {target.stages[i].name} |") >= 3
 
 
 def test_no_screening_where_fe_meets(loop, monkeypatch) -> None:

@@ -329,6 +329,7 @@ def mapped_design(target: TargetSpec, *, search_model: Any, check: Checker,
         if key not in seen:
             seen.add(key)
             ranked.append(e)
+    pool = tuple(ranked)
     ranked = ranked[:settings.top]
     best = ranked[0]
     space = SearchSpace(searched, boxes=boxes)
@@ -336,7 +337,7 @@ def mapped_design(target: TargetSpec, *, search_model: Any, check: Checker,
     return DesignResult(searched, settings, bool(best.meets), ranked, explanation,
                         last.reachable, evaluations, calls, history,
                         time.perf_counter() - t0, {}, last.gradient_steps,
-                        wanted=wanted_whole, rounds=tuple(records))
+                        wanted=wanted_whole, rounds=tuple(records), pool=pool)
 
 
 def _diverse(target: TargetSpec, pool: Sequence[Evaluation], k: int, search_model: Any,

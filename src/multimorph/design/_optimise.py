@@ -169,6 +169,9 @@ class DesignResult:
     fe_twist: str | None = None
     """How the ``modules`` route inflated twisting modules
     (:data:`multimorph.design.TWIST_ROUTES`); ``None``: no module FE."""
+    pool: tuple[Evaluation, ...] = ()
+    """Space mapping: every distinct design the checking model scored, ranked (``designs``
+    is its head); the FE screening picks other cells of a stage from it. Empty otherwise."""
 
     @property
     def fe_verified(self) -> bool | None:

@@ -311,9 +311,10 @@ def _screen_stage(target: TargetSpec, result: DesignResult, mine: Evaluation,
                   stage: Callable[[str], None] | None = None, tag: str = "",
                   ) -> tuple[Evaluation, Evaluation, bool, list[dict[str, Any]]]:
     """FE screening of the stage FE misses most: the round's design with that stage's cell
-    replaced by up to ``n`` other cells of the search's ranked designs (the best for that
-    stage as the search scored them, none within :data:`SCREEN_DISTANCE` of a cell FE
-    has already checked for it, ``tried``), each checked in FE — on the ``modules`` route
+    replaced by up to ``n`` other cells of the search's designs (``result.pool``, else its
+    ranked designs: the best for that stage as the search scored them, none within
+    :data:`SCREEN_DISTANCE` of a cell FE has already checked for it, ``tried``), each
+    checked in FE — on the ``modules`` route
     only that stage's module is new. The design with the best FE result (:func:`_rank`)
     is the round's. Returns its (model view, FE, agreed) and one record per screened
     cell."""
@@ -331,7 +332,7 @@ def _screen_stage(target: TargetSpec, result: DesignResult, mine: Evaluation,
     seen = tried.setdefault(i, [])
     seen.append(base[cut].copy())
     picks: list[tuple[np.ndarray, int]] = []
-    for d in sorted(result.designs, key=lambda d: stage_score(d, i, target)):
+    for d in sorted(result.pool or result.designs, key=lambda d: stage_score(d, i, target)):
         z = np.asarray(d.candidate.x, float)[cut]
         if any(float(np.max(np.abs(z - w))) < SCREEN_DISTANCE for w in seen):
             continue

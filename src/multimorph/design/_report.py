@@ -260,6 +260,23 @@ def report_markdown(result: DesignResult, robust: RobustnessReport | None = None
                          f"{_fmt_mag(want.kind, abs(want.magnitude))} | "
                          f"{_fmt_mag(want.kind, m_.magnitude)} | "
                          f"{_fmt_mag(want.kind, f_.magnitude)} |")
+        screened = [(rd.index, e) for rd in result.fe_rounds for e in rd.screened]
+        if screened:
+            L += ["", "FE screening (`--fe-screen`): other cells of the stage FE missed most, "
+                  "each checked in FE in the round's design; `kept`: it replaced the "
+                  "search's cell in the round's design (above).", "",
+                  "| FE round | stage | model Pc | FE Pc | model Ph | FE Ph | model | FE | "
+                  "FE objective | kept |", "|---|---|---|---|---|---|---|---|---|---|"]
+            kinds = {st.name: st.kind for st in result.target.stages}
+            for k, e in screened:
+                kind = kinds.get(e["stage"], "bend")
+                L.append(f"| {k} | {e['stage']} | {_fmt_p(e['model_start_pressure'])} | "
+                         f"{_fmt_p(e['fe_start_pressure'])} | "
+                         f"{_fmt_p(e['model_end_pressure'])} | "
+                         f"{_fmt_p(e['fe_end_pressure'])} | "
+                         f"{_fmt_mag(kind, e['model_magnitude'])} | "
+                         f"{_fmt_mag(kind, e['fe_magnitude'])} | "
+                         f"{e['fe_objective']:.3g} | {'yes' if e['kept'] else 'no'} |")
         last = result.fe_rounds[-1]
         if not last.check.meets and last.check.message:
             L += ["", f"FE notes: {last.check.message}"]
