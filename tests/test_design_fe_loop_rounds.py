@@ -205,6 +205,8 @@ def test_fe_screening_tries_other_cells_of_the_stage_fe_misses(loop, monkeypatch
         np.testing.assert_allclose(x[kept_out], x_best[kept_out])
         assert np.max(np.abs(x[cut] - x_best[cut])) >= _pipeline.SCREEN_DISTANCE
     assert all(s["stage"] == target.stages[i].name for s in rd.screened)
+    # the second screened cell is not the first one again (the farthest of the best)
+    assert np.max(np.abs(checked[1][cut] - checked[2][cut])) >= _pipeline.SCREEN_DISTANCE
     kept = [s for s in rd.screened if s["kept"]]
     assert len(kept) <= 1
     # the round's design is the best FE found: the search's or the screened one kept

@@ -279,7 +279,8 @@ def _fe_loop(searched: TargetSpec, result: DesignResult, search: Callable[..., D
         if screen > 0 and route == "modules" and not agreed:
             mine, fe_ev, agreed, screened = _screen_stage(
                 searched, result, mine, fe_ev, agreed, check, model, order_models,
-                screen, tried, stage=stage, tag=f"FE round {k}: ")
+                screen, tried, correction=correction, seed=k, stage=stage,
+                tag=f"FE round {k}: ")
             checked.extend(np.asarray(e["x"], float) for e in screened)
         if best_fe is None or _rank(fe_ev, agreed) < _rank(best_fe[1], best_fe[2]):
             best_fe = (mine, fe_ev, agreed)
@@ -308,16 +309,22 @@ def _screen_stage(target: TargetSpec, result: DesignResult, mine: Evaluation,
                   fe_ev: Evaluation, agreed: bool, check: Callable[..., list[Evaluation]],
                   model: Any, order_models: Sequence[Any], n: int,
                   tried: dict[int, list[np.ndarray]], *,
+                  correction: Any = None, seed: int = 0,
                   stage: Callable[[str], None] | None = None, tag: str = "",
                   ) -> tuple[Evaluation, Evaluation, bool, list[dict[str, Any]]]:
     """FE screening of the stage FE misses most: the round's design with that stage's cell
-    replaced by up to ``n`` other cells of the search's designs (``result.pool``, else its
-    ranked designs: the best for that stage as the search scored them, none within
-    :data:`SCREEN_DISTANCE` of a cell FE has already checked for it, ``tried``), each
-    checked in FE — on the ``modules`` route
-    only that stage's module is new. The design with the best FE result (:func:`_rank`)
-    is the round's. Returns its (model view, FE, agreed) and one record per screened
-    cell."""
+    replaced by up to ``n`` other cells, each checked in FE — on the ``modules`` route only
+    that stage's module is new. The design with the best FE result (:func:`_rank`) is the
+    round's. Returns its (model view, FE, agreed) and one record per screened cell.
+
+    The cells (:func:`_screen_cells`): that stage's cells of the search's designs
+    (``result.pool``, else its ranked designs) and :data:`SCREEN_SAMPLES` random cells
+    of the stage in the round's design, scored for that stage on the search's view (the
+    first of ``order_models``, else ``model``; with the round's ``correction``). The
+    first is the best scored, each next the one farthest from the cells FE has checked
+    for the stage (``tried``, over the run) among the best scored
+    (:data:`SCREEN_SHORTLIST`): a cell like the one FE contradicted is not the only kind
+    tried."""
     from multimorph.design._evaluate import evaluate_one
     from multimorph.design._mapped import stage_score
     from multimorph.design._space import N_VARS, SearchSpace
@@ -331,17 +338,11 @@ def _screen_stage(target: TargetSpec, result: DesignResult, mine: Evaluation,
     base = np.asarray(mine.candidate.x, float)
     seen = tried.setdefault(i, [])
     seen.append(base[cut].copy())
-    picks: list[tuple[np.ndarray, int]] = []
-    for d in sorted(result.pool or result.designs, key=lambda d: stage_score(d, i, target)):
-        z = np.asarray(d.candidate.x, float)[cut]
-        if any(float(np.max(np.abs(z - w))) < SCREEN_DISTANCE for w in seen):
-            continue
-        seen.append(z.copy())
-        picks.append((z, d.stages[i].n_cells))
-        if len(picks) >= n:
-            break
-    space = SearchSpace(target, boxes=model.support_boxes()
-                        if callable(getattr(model, "support_boxes", None)) else None)
+    boxes = (model.support_boxes() if callable(getattr(model, "support_boxes", None))
+             else None)
+    space = SearchSpace(target, boxes=boxes)
+    picks = _screen_cells(target, result, mine, i, order_models[0] if order_models
+                          else model, space, correction, n, seen, seed)
     best = (mine, fe_ev, agreed)
     name = target.stages[i].name
     log: list[dict[str, Any]] = []
@@ -356,7 +357,7 @@ def _screen_stage(target: TargetSpec, result: DesignResult, mine: Evaluation,
         if alt.device is None:
             continue
         if stage is not None:
-            stage(f"{tag}FE screening of stage {name}: another cell")
+            stage(f"{tag}FE screening of stage {name}: cell {len(log) + 1} of {len(picks)}")
         fe_alt = check(target, [alt])[0]
         views = [model_checker(m)(target, [alt])[0] for m in order_models]
         ok = _agreed(fe_alt, alt, *views)
@@ -372,6 +373,61 @@ def _screen_stage(target: TargetSpec, result: DesignResult, mine: Evaluation,
             for e in log:
                 e["kept"] = e is log[-1]
     return (*best, log)
+
+
+#: Random cells of the screened stage scored on the search model (one batched call).
+SCREEN_SAMPLES = 2048
+#: The best scored cells the screening picks the most different ones from.
+SCREEN_SHORTLIST = 32
+
+
+def _screen_cells(target: TargetSpec, result: DesignResult, mine: Evaluation, i: int,
+                  model: Any, space: Any, correction: Any, n: int, seen: list[np.ndarray],
+                  seed: int) -> list[tuple[np.ndarray, int]]:
+    """Up to ``n`` cells of stage ``i`` to screen in FE, with their counts: the best scored
+    first, then each the farthest (largest least ∞-distance in unit coordinates) from
+    ``seen`` and the picks so far among the :data:`SCREEN_SHORTLIST` best; none within
+    :data:`SCREEN_DISTANCE` of ``seen`` (extended with the picks)."""
+    from multimorph.design._evaluate import evaluate_one
+    from multimorph.design._mapped import stage_score
+    from multimorph.design._space import N_VARS, trace_pmax
+
+    cut = slice(i * N_VARS, (i + 1) * N_VARS)
+    cells: list[tuple[float, np.ndarray, int]] = []
+    for d in result.pool or result.designs:
+        cells.append((stage_score(d, i, target), np.asarray(d.candidate.x, float)[cut],
+                      d.stages[i].n_cells))
+    rng = np.random.default_rng(seed)
+    X = np.repeat(np.asarray(mine.candidate.x, float)[None, :], SCREEN_SAMPLES, axis=0)
+    X[:, cut] = rng.random((SCREEN_SAMPLES, N_VARS))
+    cands = [space.decode(x) for x in X]
+    out = list(model([c.model_cells(model)[i] for c in cands],
+                     trace_pmax(target.constraints.max_pressure, correction)))
+    resps = list(mine.responses)
+    for cand, r, x in zip(cands, out, X, strict=True):
+        resps[i] = r
+        ev = evaluate_one(target, cand, resps, correction=correction)
+        cells.append((stage_score(ev, i, target), x[cut], ev.stages[i].n_cells))
+    cells.sort(key=lambda c: c[0])
+
+    def gap(z: np.ndarray, others: list[np.ndarray]) -> float:
+        return min((float(np.max(np.abs(z - w))) for w in others), default=np.inf)
+
+    picks: list[tuple[np.ndarray, int]] = []
+    first = next((c for c in cells if gap(c[1], seen) >= SCREEN_DISTANCE), None)
+    if first is None or n <= 0:
+        return picks
+    picks.append((first[1], first[2]))
+    seen.append(first[1].copy())
+    short = [c for c in cells if gap(c[1], seen) >= SCREEN_DISTANCE][:SCREEN_SHORTLIST]
+    while len(picks) < n and short:
+        far = max(short, key=lambda c: gap(c[1], seen))
+        if gap(far[1], seen) < SCREEN_DISTANCE:
+            break
+        picks.append((far[1], far[2]))
+        seen.append(far[1].copy())
+        short = [c for c in short if c is not far]
+    return picks
 
 
 def write_design_report(run: DesignRun, folder: Path, *, header: str,
