@@ -1,5 +1,7 @@
-"""The tilted cells' strip-shear factor of the calibrated model (issue 22): a factor on the
-Ritz rule γ = ε sin 2β fitted on the FE data set's tilted cells (``calibrated._shear``)."""
+"""The tilted cells' strip shear of the calibrated model (issue 22), fitted on the FE data
+set's tilted cells (``calibrated._shear``): a factor on the Ritz rule γ = ε sin 2β, and
+since stop 39 the volume law (ln(γ / sin 2β) linear in ln(V/V0 − 1) and the log groups),
+the model's form where it beats the factor out of sample."""
 
 import copy
 import math
@@ -9,7 +11,14 @@ import numpy as np
 import pytest
 
 from multimorph.calibrated import load_model
-from multimorph.calibrated._shear import fit_shear_factor, plate_level, shear_factor
+from multimorph.calibrated._box import cell_groups
+from multimorph.calibrated._shear import (
+    VOLUME_GROUPS,
+    fit_shear_factor,
+    plate_level,
+    shear_factor,
+    shear_of_volume,
+)
 from multimorph.geometry import CellGeometry, TiltedCell
 from multimorph.io import load_toml
 
@@ -48,6 +57,41 @@ def _tilted(deg: float) -> TiltedCell:
     return TiltedCell(cell, math.radians(deg))
 
 
+def test_the_volume_law_recovers_a_known_law_from_paths() -> None:
+    """Synthetic paths whose shear is a known law of their volume and groups: the fit finds
+    its coefficients (the exponent from the paths' own shapes too), reports no error, and
+    is the form used when asked for (it beats the factor, which cannot describe it); by
+    default the factor stays the form."""
+    rng = np.random.default_rng(1)
+    true = np.array([-1.0, 0.8, -0.2, 0.8] + [0.1 * (k + 1) for k in range(len(VOLUME_GROUPS))])
+
+    def law(groups, v):
+        x = [1.0, groups["tilt"], math.log(groups["jm"]), math.log(v - 1.0)]
+        x += [math.log(groups[g]) for g in VOLUME_GROUPS]
+        return math.sin(2.0 * groups["tilt"]) * math.exp(float(np.dot(true, x)))
+
+    samples = []
+    for i in range(60):
+        groups = {g: float(rng.uniform(0.1, 2.0)) for g in VOLUME_GROUPS}
+        groups.update(tilt=float(rng.uniform(0.2, 1.0)), jm=float(rng.uniform(10, 80)))
+        v = float(rng.uniform(3.0, 15.0))
+        shape = [{"pressure": f * 3e4, "fe": law(groups, 1.0 + f * (v - 1.0)),
+                  "volume": 1.0 + f * (v - 1.0)} for f in (0.3, 0.6)]
+        samples.append({"design": i, "holdout": i % 5 == 0, "tilt": groups["tilt"],
+                        "jm": groups["jm"], "pressure": 3e4, "fe": law(groups, v),
+                        "rule": float(rng.uniform(0.1, 1.0)), "volume": v, "groups": groups,
+                        "shape": shape})
+    fit = fit_shear_factor(samples, "volume")
+    vl = fit["volume_law"]
+    assert np.allclose(vl["coefficients"], true, atol=1e-8)
+    assert vl["leave_one_out_error"]["median"] < 1e-8 and vl["holdout_error"]["n"] == 12
+    assert fit["form"] == "volume" and fit_shear_factor(samples)["form"] == "factor"
+    groups = samples[0]["groups"]
+    gamma, inside = shear_of_volume(vl, groups, np.array([1.0, 2.0, 5.0]))
+    assert inside and gamma[0] == 0.0
+    assert gamma[1:] == pytest.approx([law(groups, 2.0), law(groups, 5.0)])
+
+
 def test_the_shipped_factor_scales_the_shear_and_leaves_pc_ph_alone() -> None:
     model = load_model()
     fit = model.twisting_shear
@@ -58,6 +102,11 @@ def test_the_shipped_factor_scales_the_shear_and_leaves_pc_ph_alone() -> None:
     assert fit["leave_one_out_error"]["p90"] < 0.7 * fit["rule_error"]["p90"]
     assert fit["holdout_error"]["median"] <= fit["holdout_rule_error"]["median"]
     assert fit["holdout_error"]["p90"] < 0.8 * fit["holdout_rule_error"]["p90"]
+    # the factor is the shipped form; the volume law is fitted beside it and reported
+    assert fit.get("form", "factor") == "factor"
+    if "volume_law" in fit:
+        vl = fit["volume_law"]
+        assert vl["training_designs"] > 0 and {"median", "p90"} <= set(vl["holdout_error"])
     bare = copy.copy(model)
     bare.twisting_shear = None
     cell = _tilted(30.0)
@@ -71,6 +120,42 @@ def test_the_shipped_factor_scales_the_shear_and_leaves_pc_ph_alone() -> None:
     assert r.characteristic.critical == pytest.approx(r0.characteristic.critical)
     assert r.characteristic.hardening == pytest.approx(r0.characteristic.hardening)
     assert "factor calibrated on" in r.meta["calibration"]["twisting"]
+
+
+def test_the_volume_law_form_follows_the_chamber_volume() -> None:
+    """The model with the volume law as its form (``fit twist-shear --form volume``): the
+    shear along a tilted cell's path is the law of the path's volume, rising with it from
+    zero."""
+    model = copy.copy(load_model())
+    rng = np.random.default_rng(2)
+    samples = []
+    for i in range(60):
+        groups = {g: float(rng.uniform(0.1, 2.0)) for g in VOLUME_GROUPS}
+        groups.update(tilt=float(rng.uniform(0.2, 1.0)), jm=float(rng.uniform(10, 80)))
+        v = float(rng.uniform(3.0, 15.0))
+        fe = 0.3 * math.sin(2 * groups["tilt"]) * (v - 1.0) ** 0.8
+        samples.append({"design": i, "holdout": i % 5 == 0, "tilt": groups["tilt"],
+                        "jm": groups["jm"], "pressure": 3e4, "fe": fe,
+                        "rule": fe * float(rng.uniform(0.5, 3.0)), "volume": v,
+                        "groups": groups, "shape": []})
+    model.twisting_shear = fit_shear_factor(samples, "volume")
+    assert model.twisting_shear["form"] == "volume"
+    law = model.twisting_shear["volume_law"]
+    cell = _tilted(30.0)
+    r = model.tilted_by_straight([cell], 3e5)[0]
+    cal = r.meta["calibration"]
+    assert cal["shear_law"] == "volume" and "law of its chamber volume" in cal["twisting"]
+    lo, hi = cal["shear_range"]
+    assert lo < 1.0 < hi
+    v = np.asarray(r.path.volume, float) / r.path.volume[0]
+    gamma = np.asarray(r.path.extra["shear"], float)
+    want, _ = shear_of_volume(law, cell_groups(cell), v)
+    assert np.allclose(gamma, want)
+    order = np.argsort(v)
+    assert gamma[order][0] == pytest.approx(0.0, abs=1e-9)
+    assert np.all(np.diff(gamma[order]) >= -1e-12)
+    with pytest.raises(ValueError, match="factor or volume"):
+        fit_shear_factor(samples, "other")
 
 
 def test_a_tilted_cell_is_read_on_its_straight_cell_at_the_plate_level() -> None:

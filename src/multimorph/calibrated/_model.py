@@ -504,26 +504,47 @@ class CalibratedModel:
 def _straight_for_tilted(r: Response, cell: TiltedCell,
                          shear_fit: dict[str, Any] | None = None) -> Response:
     """A straight cell's response standing for its tilted cell (see :meth:`responses`):
-    the same path, read on the strip shear γ = c · ε sin 2|β| (ε the mid-height strain
-    along the chamber; c the factor calibrated on the tilted FE cells, :mod:`._shear`, or 1
-    without one: the Ritz rule), kept as ``extra["shear"]`` as a calibrated tilted cell
-    would give it (the twisting module reads it the same way)."""
+    the same path, read on the strip shear — by the volume law of the path's chamber volume
+    where the fit has it as its form (``shear_fit["form"] == "volume"``, :mod:`._shear`),
+    else γ = c · ε sin 2|β| (ε the mid-height strain along the chamber; c the factor
+    calibrated on the tilted FE cells, or 1 without one: the Ritz rule) — kept as
+    ``extra["shear"]`` as a calibrated tilted cell would give it (the twisting module reads
+    it the same way)."""
     if not str(r.meta.get("model", "")).startswith("calibrated"):
         return r  # the Ritz fallback of a straight cell outside the box: as the Ritz model
     from multimorph.calibrated._box import cell_groups
-    from multimorph.calibrated._shear import shear_factor
+    from multimorph.calibrated._shear import shear_factor, shear_of_volume
 
     c = cell.cell
     path = r.path
-    factor, sigma, inside = shear_factor(shear_fit, abs(cell.tilt), cell_groups(cell)["jm"])
+    groups = cell_groups(cell)
+    cal = dict(r.meta.get("calibration") or {})
+    law = (shear_fit or {}).get("volume_law") if (shear_fit or {}).get("form") == "volume" \
+        else None
+    if law is not None:
+        v = np.asarray(path.volume, float)
+        gamma, inside = shear_of_volume(law, groups, v / v[0])
+        path = replace(path, twist_rate=gamma, extra={**(path.extra or {}), "shear": gamma})
+        resp = build_response(path, length=c.length, shear_modulus=c.mu, backend=r.backend,
+                              break_stretch=c.material.break_stretch, signal="twist_rate")
+        sigma = float(law["sigma_log"])
+        cal["twisting"] = ("the straight cell's calibrated response (plate level); the strip "
+                           "shear by a law of its chamber volume, ln(γ / sin 2β) linear in "
+                           "ln(V/V0 − 1), the tilt, ln Jm and the log groups, calibrated on "
+                           f"{law['training_designs']} tilted FE cells"
+                           + ("" if inside else " (its groups held at the edges of the data)"))
+        cal["shear_law"] = "volume"
+        cal["shear_range"] = [math.exp(-sigma), math.exp(sigma)]
+        return resp.with_meta(**{**r.meta, "calibration": cal})
+    factor, sigma, inside = shear_factor(shear_fit, abs(cell.tilt), groups["jm"])
     mid = np.asarray(path.axial_stretch) * (1.0 + np.asarray(path.curvature) * 0.5
                                             * c.height) - 1.0
     gamma = factor * mid * math.sin(2.0 * abs(cell.tilt))
     path = replace(path, twist_rate=gamma, extra={**(path.extra or {}), "shear": gamma})
     resp = build_response(path, length=c.length, shear_modulus=c.mu, backend=r.backend,
                           break_stretch=c.material.break_stretch, signal="twist_rate")
-    cal = dict(r.meta.get("calibration") or {})
     if shear_fit:
+        cal["shear_law"] = "factor"
         cal["twisting"] = ("the straight cell's calibrated response (plate level); the strip "
                            "shear by the Ritz rule γ = ε sin 2β times a factor calibrated on "
                            f"{shear_fit['training_designs']} tilted FE cells"

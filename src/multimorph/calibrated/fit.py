@@ -11,11 +11,12 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from typing import Any
 
 
-def fit_twist_shear() -> dict[str, Any]:
+def fit_twist_shear(form: str = "factor") -> dict[str, Any]:
     """Fit the tilted cells' strip-shear factor (:mod:`._shear`) on the shipped model and
     data and write it into the model's manifest (``twisting_shear``); returns it."""
     from multimorph.calibrated._fit import MODEL_MANIFEST
@@ -25,7 +26,18 @@ def fit_twist_shear() -> dict[str, Any]:
     load_model.cache_clear()
     model = load_model()
     model.twisting_shear = None                 # sample the bare rule
-    fit = fit_shear_factor(shear_samples(model))
+    samples = shear_samples(model)
+    fit = fit_shear_factor(samples, form)
+    if fit.get("form") == "volume":
+        # the volume the law is read at is the model's own with that law: the shear's knees
+        # place the tilted path's pressures on the anchors, so the volume at the read
+        # pressure moves with the law; one more pass reads it there
+        model.twisting_shear = fit
+        again = {(s["set"], s["design"]): s for s in shear_samples(model)}
+        samples = [{**s, "volume": again[key]["volume"], "shape": again[key]["shape"]}
+                   if (key := (s["set"], s["design"])) in again
+                   else {**s, "volume": math.nan} for s in samples]
+        fit = fit_shear_factor(samples, form)
     manifest = json.loads(MODEL_MANIFEST.read_text())
     manifest["twisting_shear"] = fit
     MODEL_MANIFEST.write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
@@ -38,6 +50,15 @@ def fit_twist_shear() -> dict[str, Any]:
          + (f", held out {fit['holdout_error']['median']:.3g} {fit['holdout_error']['p90']:.3g}"
             f" (rule {fit['holdout_rule_error']['median']:.3g})"
             if "holdout_error" in fit else ""), file=sys.stderr, flush=True)
+    law = fit.get("volume_law")
+    if law:
+        used = "the form used" if fit.get("form") == "volume" else "not used"
+        print(f"[calibrate] twist shear volume law ({used}): leave-one-out "
+              f"{law['leave_one_out_error']['median']:.3g} "
+              f"{law['leave_one_out_error']['p90']:.3g}"
+              + (f", held out {law['holdout_error']['median']:.3g} "
+                 f"{law['holdout_error']['p90']:.3g}" if "holdout_error" in law else ""),
+              file=sys.stderr, flush=True)
     return fit
 
 
@@ -54,9 +75,13 @@ def main(argv: list[str] | None = None) -> int:
     md.add_argument("--kinds", nargs="+", metavar="KIND",
                     help="refit only these kinds (bending, stretching, twisting) into the "
                          "shipped model, keeping the others and its emulators")
-    sub.add_parser("twist-shear", help="fit the tilted cells' strip-shear factor on the "
-                   "shipped model (also done by 'model', unless its --kinds leave out "
-                   "bending and twisting)")
+    ts = sub.add_parser("twist-shear", help="fit the tilted cells' strip-shear factor on "
+                        "the shipped model (also done by 'model', unless its --kinds leave "
+                        "out bending and twisting)")
+    ts.add_argument("--form", choices=("factor", "volume"), default="factor",
+                    help="the shear's form in the model: the factor on the Ritz rule "
+                         "(default), or the volume law where it beats the factor "
+                         "(calibrated._shear)")
     args = ap.parse_args(argv)
     if args.what == "ritz-table":
         from multimorph.calibrated._ritz_table import build_ritz_table
@@ -64,7 +89,7 @@ def main(argv: list[str] | None = None) -> int:
         build_ritz_table(args.samples, args.chunk)
         return 0
     if args.what == "twist-shear":
-        fit_twist_shear()
+        fit_twist_shear(args.form)
         return 0
     from multimorph.calibrated._fit import fit_and_save
     from multimorph.calibrated._model import straight_of
