@@ -194,8 +194,12 @@ def test_a_long_module_is_checked_by_a_few_of_its_cells(tmp_path, monkeypatch) -
     r = _bending(target.constraints.max_pressure, 100e3, 5e3, 40.0, 1.0)
     k_ph = float(np.interp(lifter.end, r.loading.pressure, r.loading.curvature))
     assert lifter.magnitude == pytest.approx(k_ph * n[1] * cell.length, rel=1e-6)
-    saved = next((tmp_path).glob("*.modules/lifter-*.json"))
     import json
 
-    stats = json.loads(saved.read_text())["stats"]
+    # each module's FE is kept under its own key (stop 39), with what it was run on
+    saved = [json.loads(f.read_text()) for f in (tmp_path / "modules").glob("*.json")]
+    lifter_run = next(d for d in saved if d["module"] == "lifter")
+    stats = lifter_run["stats"]
     assert stats["fe_cells"] == MODULE_FE_MAX_CELLS and stats["module_cells"] == n[1]
+    assert lifter_run["description"]["cells"] == n[1]
+    assert lifter_run["description"]["end"] == "free"

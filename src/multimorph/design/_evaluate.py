@@ -133,9 +133,15 @@ SUPPORT_SIGMA = 0.08
 #: fast variant's σ of log Pc has median 0.097-0.098, p90 0.107-0.112 and largest 0.120,
 #: so 0.08 ruled out 75-88 % of the cells the calibration was checked on, and the
 #: designer was pushed to a corner of the tilted box (stop 37: three-stage seeds 2-4 ended
-#: infeasible on this constraint alone). 0.12 flags what lies beyond every held-out design.
+#: infeasible on this constraint alone). 0.12 flagged what lay beyond every held-out design.
+#: Stop 39 refitted the kind on three sets (268 training designs, `twisting_narrow` and
+#: `twisting2` joined): its held-out errors fell (Pc median 11.5 -> 7.7 %, Ph 16.4 -> 10.4 %
+#: on `twisting`) and its σ rose to what they are (on the 58 held-out tilted designs of the
+#: three sets the fast variant's σ of log Pc has median 0.118, p90 0.136, largest 0.139,
+#: against 0.097 / 0.112 / 0.120 before; 0.12 now ruled out 47 % of them, and the gripper
+#: target's seed 4 ended infeasible on it). The same rule gives 0.14.
 #: Bending's held-out p90 is 0.073 and stretching's 0.041 (stop 38): 0.08 for both.
-SUPPORT_SIGMA_KIND = {"twisting": 0.12}
+SUPPORT_SIGMA_KIND = {"twisting": 0.14}
 #: Least motion of a graded stage's part, as a fraction of its nominal share of the stage's
 #: magnitude (``<part>.share``): the stage is scored on its parts' sum, and a part that
 #: hardly moves would still pass (in FE the three-stage curl's parts turned 0.78 and 1.24 of
