@@ -197,6 +197,13 @@ def test_polish_on_the_accurate_model_improves_one_stage_at_a_time():
     # the result is what the accurate model says of its cells (independent recomputation)
     [again] = model_checker(ACCURATE)(t, [out])
     assert again.objective == pytest.approx(out.objective, rel=1e-9)
+    # the budget is model calls, not wall time (stop 39): the same start, the same result
+    calls.clear()
+    short = polish_stages(t, start, counting, seconds=30.0, calls=3)
+    assert len(calls) == 3
+    calls.clear()
+    assert polish_stages(t, start, counting, seconds=30.0, calls=3).objective == \
+        pytest.approx(short.objective, rel=1e-12) and len(calls) == 3
 
 
 def test_a_path_that_stopped_early_is_not_read_as_stiffer():

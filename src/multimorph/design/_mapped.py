@@ -60,6 +60,14 @@ QUANTITIES = ("start_pressure", "end_pressure", "magnitude")
 POOL = 64
 #: Where a pressure a model does not reach below max_pressure is put (× it).
 BEYOND = 1.1
+#: Model calls (each one batch of ≤ 16 probe cells) of the compass polish after the
+#: rounds (:func:`polish_stages`): an evaluation budget, so that a design is the same on
+#: every machine. Until stop 39 the polish ran for 20 s of wall time; on the 2-core
+#: machine that was 29 calls of the calibrated model (about 0.7 s a call), and the jar
+#: lifter's seed 3 ended in a different place on another machine.
+POLISH_CALLS = 30
+#: Wall-time cap of the polish (seconds), a guard only: the budget is POLISH_CALLS.
+POLISH_SECONDS = 120.0
 
 Correction = tuple[dict[str, float], ...]
 
@@ -207,7 +215,8 @@ def mapped_design(target: TargetSpec, *, search_model: Any, check: Checker,
                   round_budget: float = 0.4, progress: Progress | None = None,
                   boxes: Any = None, radius: float = 0.15, checked: int = 8,
                   x0: Any = None, correction: Correction | None = None,
-                  polish_model: Any = None, polish_seconds: float = 20.0,
+                  polish_model: Any = None, polish_seconds: float = POLISH_SECONDS,
+                  polish_calls: int | None = POLISH_CALLS,
                   model_order: bool = False) -> DesignResult:
     """Search on ``search_model``, check on ``check``, correct the model, search again.
 
@@ -237,11 +246,12 @@ def mapped_design(target: TargetSpec, *, search_model: Any, check: Checker,
         Start the first search from the design ``x0`` (within ``radius``) with this
         correction of the search model (a search that corrects an earlier design: FE in
         the loop).
-    polish_model, polish_seconds
+    polish_model, polish_seconds, polish_calls
         When the rounds end without meeting the targets: a compass search directly on this
         batch model (the checking model's own: e.g. the calibrated model) from the best
         checked design, one stage at a time, worst stage first — each probe changes one
-        stage's cell, so it costs one cell — for at most ``polish_seconds``.
+        stage's cell, so it costs one cell — for at most ``polish_calls`` model calls
+        (:data:`POLISH_CALLS`) and ``polish_seconds``.
     model_order : bool
         The searches keep the stages in order on the search model's own Pc too, where they
         correct it (FE in the loop; :func:`design`).
@@ -316,7 +326,8 @@ def mapped_design(target: TargetSpec, *, search_model: Any, check: Checker,
     if (polish_model is not None and incumbent is not None and not incumbent[1].meets
             and polish_seconds > 0):
         polished = polish_stages(searched, incumbent[1], polish_model, boxes=boxes,
-                                 seconds=polish_seconds, progress=progress)
+                                 seconds=polish_seconds, calls=polish_calls,
+                                 progress=progress)
         if polished.objective < incumbent[1].objective:
             checked_all.append(polished)
     if not checked_all:               # nothing searched: the refusal stands as it is
@@ -384,7 +395,8 @@ def _diverse(target: TargetSpec, pool: Sequence[Evaluation], k: int, search_mode
 
 
 def polish_stages(target: TargetSpec, start: Evaluation, model: Any, *, boxes: Any = None,
-                  seconds: float = 20.0, step: float = 0.04, min_step: float = 0.004,
+                  seconds: float = POLISH_SECONDS, calls: int | None = POLISH_CALLS,
+                  step: float = 0.04, min_step: float = 0.004,
                   progress: Progress | None = None) -> Evaluation:
     """Compass search on ``model`` itself from ``start``, one stage's cell at a time.
 
@@ -392,7 +404,8 @@ def polish_stages(target: TargetSpec, start: Evaluation, model: Any, *, boxes: A
     coordinates of its cell are probed ± ``step`` (one batched call of 2 × 8 cells; the
     other stages keep their responses), the best improvement of the whole design's
     objective is taken, else the step is halved, down to ``min_step``. Stops when the design
-    meets the targets or after ``seconds``.
+    meets the targets, after ``calls`` model calls (``None``: no budget) or after
+    ``seconds``.
     """
     import numpy as np
 
@@ -405,13 +418,18 @@ def polish_stages(target: TargetSpec, start: Evaluation, model: Any, *, boxes: A
     S = len(target.stages)
     order = sorted(range(S), key=lambda i: -stage_score(start, i, target))
     cont = (0, 1, 2, 3, 4, 5, 6, 9)
+    used = 0
+
+    def spent() -> bool:
+        return time.perf_counter() > t_end or (calls is not None and used >= calls)
+
     for i in order:
-        if best.meets or time.perf_counter() > t_end:
+        if best.meets or spent():
             break
         if stage_score(best, i, target) <= 1e-9:
             continue
         h = step
-        while h >= min_step and time.perf_counter() < t_end and not best.meets:
+        while h >= min_step and not spent() and not best.meets:
             x = np.asarray(best.candidate.x, float)
             probes = []
             for j in cont:
@@ -423,6 +441,7 @@ def polish_stages(target: TargetSpec, start: Evaluation, model: Any, *, boxes: A
                         probes.append(z)
             cands = [space.decode(z) for z in probes]
             out = list(model([c.model_cells(model)[i] for c in cands], pmax))
+            used += 1
             trial = []
             for cand, r in zip(cands, out, strict=True):
                 resps = list(best.responses)
