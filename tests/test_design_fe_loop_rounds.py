@@ -13,7 +13,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from multimorph.design import DesignSettings, _pipeline, design
+from multimorph.design import DesignSettings, _mapped, _pipeline, design
 from multimorph.design._evaluate import evaluate_one
 from test_design_helpers import STANDIN
 from test_design_infeasible import target as two_bends
@@ -203,10 +203,10 @@ def test_fe_screening_tries_other_cells_of_the_stage_fe_misses(loop, monkeypatch
     assert len(checked) == 3 and len(rd.screened) == 2
     for x in checked[1:]:      # only that stage's cell moved, to a cell FE had not checked
         np.testing.assert_allclose(x[kept_out], x_best[kept_out])
-        assert np.max(np.abs(x[cut] - x_best[cut])) >= _pipeline.SCREEN_DISTANCE
+        assert np.max(np.abs(x[cut] - x_best[cut])) >= _mapped.SCREEN_DISTANCE
     assert all(s["stage"] == target.stages[i].name for s in rd.screened)
     # the second screened cell is not the first one again (the farthest of the best)
-    assert np.max(np.abs(checked[1][cut] - checked[2][cut])) >= _pipeline.SCREEN_DISTANCE
+    assert np.max(np.abs(checked[1][cut] - checked[2][cut])) >= _mapped.SCREEN_DISTANCE
     kept = [s for s in rd.screened if s["kept"]]
     assert len(kept) <= 1
     # the round's design is the best FE found: the search's or the screened one kept

@@ -307,3 +307,51 @@ def test_a_corrected_design_keeps_its_stage_order_on_the_model_alone():
     assert not swapped.meets and swapped.objective > plain.objective
     assert kept.violations[key] < 0 and kept.meets == plain.meets
     assert kept.objective == pytest.approx(plain.objective)
+
+
+def test_screening_finds_another_kind_of_cell_where_the_checking_model_has_no_knee():
+    """Where the checking model contradicts the search model qualitatively (no hardening
+    knee near the searched cell: the three-stage twist of stop 40), the screening tries
+    other cells of that stage, all in one call of the checking model, and keeps a better
+    design; the other stage's cell stays as it was."""
+    from multimorph.design._mapped import SCREEN_MODEL_CELLS, rescore, screen_stage
+    from multimorph.design._space import N_VARS
+
+    t = load("target_jar_lifter.toml")
+    plain = design(t, model=STANDIN, settings=DesignSettings(budget=900, population=16,
+                                                             seed=3, graded=False))
+    assert plain.feasible
+    ref = plain.best.candidate.cells[1]
+    fields = ("length", "width", "height", "top_wall", "bottom_wall", "side_wall", "end_wall")
+
+    def near(cell):         # the searched lifter cell and its near copies
+        return all(abs(getattr(cell, f) / getattr(ref, f) - 1) < 0.01 for f in fields)
+
+    def kneeless_cell(cell, p_max):
+        r = standin_cell(cell, p_max)
+        if not near(cell):
+            return r
+        ch = r.characteristic
+        return Response(r.path, r.loading, r.unloading,
+                        CharacteristicPressures(ch.critical, ch.critical_kind, None, None),
+                        r.length, r.shear_modulus, "standin-kneeless")
+
+    kneeless = batched(kneeless_cell)
+    [start] = model_checker(kneeless)(t, [plain.best])
+    assert start.stages[1].end is None and not start.meets
+    calls = []
+
+    def counting(cells, p_max):
+        calls.append(len(cells))
+        return kneeless(cells, p_max)
+
+    out = screen_stage(t, rescore(t, plain.best), start, plain.designs, STANDIN, counting,
+                       seed=0)
+    assert len(calls) == 1 and calls[0] <= SCREEN_MODEL_CELLS
+    assert out.objective < start.objective and out.stages[1].end is not None
+    assert not near(out.candidate.cells[1])
+    x0, x1 = (np.asarray(e.candidate.x, float) for e in (start, out))
+    np.testing.assert_allclose(x1[:N_VARS], x0[:N_VARS])        # the sealer's cell stays
+    # the result is what the checking model says of its cells (independent recomputation)
+    [again] = model_checker(kneeless)(t, [out])
+    assert again.stages[1].end == pytest.approx(out.stages[1].end, rel=1e-9)

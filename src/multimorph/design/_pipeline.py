@@ -28,6 +28,7 @@ from multimorph.design._mapped import (
     mapped_design,
     model_checker,
     rescore,
+    screen_cells,
 )
 from multimorph.design._models import BatchModel, CountingModel, rom_batch_model, single_cell
 from multimorph.design._optimise import DesignResult, DesignSettings, design
@@ -300,11 +301,6 @@ def _fe_loop(searched: TargetSpec, result: DesignResult, search: Callable[..., D
                    designs=[best_fe[0], *others])
 
 
-#: Two cells of a stage closer than this (unit coordinates, any variable) are one cell to
-#: the FE screening (:func:`_screen_stage`).
-SCREEN_DISTANCE = 0.03
-
-
 def _screen_stage(target: TargetSpec, result: DesignResult, mine: Evaluation,
                   fe_ev: Evaluation, agreed: bool, check: Callable[..., list[Evaluation]],
                   model: Any, order_models: Sequence[Any], n: int,
@@ -317,14 +313,14 @@ def _screen_stage(target: TargetSpec, result: DesignResult, mine: Evaluation,
     that stage's module is new. The design with the best FE result (:func:`_rank`) is the
     round's. Returns its (model view, FE, agreed) and one record per screened cell.
 
-    The cells (:func:`_screen_cells`): that stage's cells of the search's designs
-    (``result.pool``, else its ranked designs) and :data:`SCREEN_SAMPLES` random cells
-    of the stage in the round's design, scored for that stage on the search's view (the
-    first of ``order_models``, else ``model``; with the round's ``correction``). The
-    first is the best scored, each next the one farthest from the cells FE has checked
-    for the stage (``tried``, over the run) among the best scored
-    (:data:`SCREEN_SHORTLIST`): a cell like the one FE contradicted is not the only kind
-    tried."""
+    The cells (:func:`~multimorph.design._mapped.screen_cells`): that stage's cells of
+    the search's designs (``result.pool``, else its ranked designs) and
+    ``_mapped.SCREEN_SAMPLES`` random cells of the stage in the round's design, scored for
+    that stage on the search's view (the first of ``order_models``, else ``model``; with
+    the round's ``correction``). The first is the best scored, each next the one farthest
+    from the cells FE has checked for the stage (``tried``, over the run) among the best
+    scored (``_mapped.SCREEN_SHORTLIST``): a cell like the one FE contradicted is not the
+    only kind tried."""
     from multimorph.design._evaluate import evaluate_one
     from multimorph.design._mapped import stage_score
     from multimorph.design._space import N_VARS, SearchSpace
@@ -341,8 +337,9 @@ def _screen_stage(target: TargetSpec, result: DesignResult, mine: Evaluation,
     boxes = (model.support_boxes() if callable(getattr(model, "support_boxes", None))
              else None)
     space = SearchSpace(target, boxes=boxes)
-    picks = _screen_cells(target, result, mine, i, order_models[0] if order_models
-                          else model, space, correction, n, seen, seed)
+    picks = screen_cells(target, result.pool or result.designs, mine, i,
+                         order_models[0] if order_models else model, space, correction, n,
+                         seen, seed)
     best = (mine, fe_ev, agreed)
     name = target.stages[i].name
     log: list[dict[str, Any]] = []
@@ -373,61 +370,6 @@ def _screen_stage(target: TargetSpec, result: DesignResult, mine: Evaluation,
             for e in log:
                 e["kept"] = e is log[-1]
     return (*best, log)
-
-
-#: Random cells of the screened stage scored on the search model (one batched call).
-SCREEN_SAMPLES = 2048
-#: The best scored cells the screening picks the most different ones from.
-SCREEN_SHORTLIST = 32
-
-
-def _screen_cells(target: TargetSpec, result: DesignResult, mine: Evaluation, i: int,
-                  model: Any, space: Any, correction: Any, n: int, seen: list[np.ndarray],
-                  seed: int) -> list[tuple[np.ndarray, int]]:
-    """Up to ``n`` cells of stage ``i`` to screen in FE, with their counts: the best scored
-    first, then each the farthest (largest least ∞-distance in unit coordinates) from
-    ``seen`` and the picks so far among the :data:`SCREEN_SHORTLIST` best; none within
-    :data:`SCREEN_DISTANCE` of ``seen`` (extended with the picks)."""
-    from multimorph.design._evaluate import evaluate_one
-    from multimorph.design._mapped import stage_score
-    from multimorph.design._space import N_VARS, trace_pmax
-
-    cut = slice(i * N_VARS, (i + 1) * N_VARS)
-    cells: list[tuple[float, np.ndarray, int]] = []
-    for d in result.pool or result.designs:
-        cells.append((stage_score(d, i, target), np.asarray(d.candidate.x, float)[cut],
-                      d.stages[i].n_cells))
-    rng = np.random.default_rng(seed)
-    X = np.repeat(np.asarray(mine.candidate.x, float)[None, :], SCREEN_SAMPLES, axis=0)
-    X[:, cut] = rng.random((SCREEN_SAMPLES, N_VARS))
-    cands = [space.decode(x) for x in X]
-    out = list(model([c.model_cells(model)[i] for c in cands],
-                     trace_pmax(target.constraints.max_pressure, correction)))
-    resps = list(mine.responses)
-    for cand, r, x in zip(cands, out, X, strict=True):
-        resps[i] = r
-        ev = evaluate_one(target, cand, resps, correction=correction)
-        cells.append((stage_score(ev, i, target), x[cut], ev.stages[i].n_cells))
-    cells.sort(key=lambda c: c[0])
-
-    def gap(z: np.ndarray, others: list[np.ndarray]) -> float:
-        return min((float(np.max(np.abs(z - w))) for w in others), default=np.inf)
-
-    picks: list[tuple[np.ndarray, int]] = []
-    first = next((c for c in cells if gap(c[1], seen) >= SCREEN_DISTANCE), None)
-    if first is None or n <= 0:
-        return picks
-    picks.append((first[1], first[2]))
-    seen.append(first[1].copy())
-    short = [c for c in cells if gap(c[1], seen) >= SCREEN_DISTANCE][:SCREEN_SHORTLIST]
-    while len(picks) < n and short:
-        far = max(short, key=lambda c: gap(c[1], seen))
-        if gap(far[1], seen) < SCREEN_DISTANCE:
-            break
-        picks.append((far[1], far[2]))
-        seen.append(far[1].copy())
-        short = [c for c in short if c is not far]
-    return picks
 
 
 def write_design_report(run: DesignRun, folder: Path, *, header: str,
