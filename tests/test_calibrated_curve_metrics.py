@@ -1,0 +1,85 @@
+"""The curve measures of the validation (``calibrated._validate``) on curves with known answers.
+
+A snapping cell's κ(P) jumps at Pc. The vertical measure (the issue's: the largest
+|y_model(P) − y_FE(P)| over FE's range) counts any shift of the jump as the jump's height;
+the graph measure (the distance between the curves drawn in the plane of P/Pc and y/range)
+counts it as the shift. Both are exact on smooth curves that differ vertically only.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from multimorph.calibrated._validate import compare, graph_error
+from multimorph.response import CharacteristicPressures, EquilibriumPath, Response
+
+PC = 20e3
+LENGTH = 0.02
+
+
+def _response(P: np.ndarray, kd: np.ndarray, pc: float | None) -> Response:
+    n = len(P)
+    path = EquilibriumPath(pressure=P, curvature=kd / LENGTH, twist_rate=np.zeros(n),
+                           axial_stretch=np.ones(n), volume=np.linspace(1.0, 5.0, n),
+                           peak_stretch=np.linspace(1.0, 3.0, n), stable=np.ones(n, bool))
+    ch = CharacteristicPressures(pc, "limit_point" if pc else None, None, None)
+    return Response(path, path, path.take(slice(None, None, -1)), ch, LENGTH, 100e3, "test")
+
+
+def _snap(shift: float) -> Response:
+    """κd: 0.1 P/Pc up to the limit point at (1 + shift) Pc, there a jump to 1, then a
+    slow rise; traced to 1.6 (1 + shift) Pc."""
+    pc = (1.0 + shift) * PC
+    lo = np.linspace(0.0, 1.0, 41)
+    hi = np.linspace(1.0 + 1e-4, 1.6, 41)
+    P = np.concatenate([lo, hi]) * pc
+    kd = np.concatenate([0.1 * lo, 1.0 + 0.2 * (hi - 1.0)])
+    return _response(P, kd, pc)
+
+
+def test_a_shifted_snap_is_a_large_vertical_error_and_a_small_graph_error() -> None:
+    fe = _snap(0.0)
+    for shift in (0.01, 0.03, -0.03):
+        c = compare(_snap(shift), fe, "bending")
+        assert c.pc_error == pytest.approx(abs(shift), rel=1e-9)
+        # the FE points between the two jumps see the other branch: the jump's height
+        assert c.curve_error > 0.7
+        # as a graph the curves are the shift apart (P in units of FE's Pc)
+        assert c.graph_error == pytest.approx(abs(shift), rel=0.05)
+        assert graph_error(_snap(shift), fe, "bending") == c.graph_error
+
+
+def test_identical_curves_are_zero_and_a_vertical_offset_is_bounded_by_itself() -> None:
+    fe = _snap(0.0)
+    assert compare(fe, fe, "bending").graph_error == pytest.approx(0.0, abs=1e-12)
+    assert compare(fe, fe, "bending").curve_error == pytest.approx(0.0, abs=1e-12)
+    # a smooth curve offset by a constant: the vertical measure is that offset over the
+    # range; the graph distance is no larger
+    P = np.linspace(0.0, 1.6 * PC, 81)
+    y = 0.5 * (P / PC) ** 2
+    smooth = _response(P, y, PC)
+    up = _response(P, y + 0.05, PC)
+    rng = 0.5 * 1.5 ** 2
+    c = compare(up, smooth, "bending")
+    assert c.curve_error == pytest.approx(0.05 / rng, rel=1e-9)
+    assert 0.0 < c.graph_error <= c.curve_error + 1e-12
+
+
+def test_no_pc_in_fe_gives_no_graph_error() -> None:
+    P = np.linspace(0.0, 30e3, 31)
+    flat = _response(P, 0.01 * P / 30e3, None)
+    assert np.isnan(graph_error(_snap(0.0), flat, "bending"))
+
+
+def test_a_value_beyond_the_other_path_is_not_known_not_a_miss() -> None:
+    from multimorph.calibrated._validate import one_sided
+
+    # FE stopped at 30 kPa (its snap); the model's knee at 35 kPa: FE does not know it
+    assert not one_sided(None, 35e3, 30e3, 60e3)
+    # FE went on to 60 kPa without a knee: the model's knee at 35 kPa is a miss
+    assert one_sided(None, 35e3, 60e3, 60e3)
+    # the other way round: FE's Pc at 40 kPa, the model traced to 50 kPa without one
+    assert one_sided(40e3, None, 60e3, 50e3)
+    assert not one_sided(40e3, None, 60e3, 35e3)
+    assert not one_sided(None, None, 1.0, 1.0) and not one_sided(1.0, 2.0, 5.0, 5.0)
