@@ -50,7 +50,8 @@ from multimorph.calibrated._representation import QUANTITIES, T_GRID, grid_value
 from multimorph.calibrated._ritz import ritz_features
 
 __all__ = ["ANCHORS", "DEFAULT_KINDS", "KIND_SETS", "MODEL_FILE", "TrainingData",
-           "fe_training_data", "fit_anchors", "fit_and_save", "fit_pressure", "model_inputs",
+           "add_signal", "fe_training_data", "fit_anchors", "fit_and_save", "fit_pressure",
+           "fit_signal", "model_inputs",
            "straight_features", "twin_set"]
 
 MODEL_FILE = DATA_DIR / "model.npz"
@@ -324,6 +325,101 @@ def fit_pressure(data: TrainingData, box: Box, fmean: np.ndarray, fstd: np.ndarr
     return fit_gp(x, np.where(mask, y, 0.0), mask, fit_outputs=jj, restarts=restarts)
 
 
+#: The signal GP's kernel (:func:`fit_signal`) is fitted on the signal at this many grid
+#: volumes from :data:`SIGNAL_T_FROM` on, among those at least :data:`SIGNAL_MIN_REACH` of
+#: the training designs reach: past the snap, where the path GP's compromise kernel (fitted
+#: at volumes 90 % of the designs reach, mostly before it) leaves the largest errors. Tried
+#: in stop 40 (held-out bending designs, the largest |Δκd| at V/V0 ≥ e over the largest
+#: |κd|, median / p90, mirror ends; the path GP 0.110 / 0.353, the never-trained grid
+#: 0.037 / 0.069): from t = 0.8 where half the designs reach, 0.077 / 0.249 (grid 0.046 /
+#: 0.079); 0.8 and 70 %, 0.079 / 0.264; 0.4 and 90 %, 0.090 / 0.299 (grid 0.083); 1.2 and
+#: 30 %, 0.074 / 0.247 (grid 0.042 / 0.078). Every kernel of its own is a little worse on
+#: the grid than the path GP; the run time averages the two (:data:`SIGNAL_WEIGHT`).
+SIGNAL_KERNEL_POINTS = 8
+#: The kinds with a signal GP of their own (measured on bending only, stop 40).
+SIGNAL_KINDS = ("bending",)
+SIGNAL_T_FROM = 1.2
+SIGNAL_MIN_REACH = 0.3
+#: The run-time signal: this weight on the signal GP's prediction, the rest on the path
+#: GP's. The average of the two kernels (t from 1.2): bending mirror 0.075 / 0.280, narrow
+#: 0.090 / 0.347 (either alone 0.104-0.111 / 0.377-0.524), grid 0.040 / 0.051 (either alone
+#: 0.037-0.042 / 0.069-0.078), one-elastomer sets 0.134 / 1.165 and 0.189 / 0.515 (path
+#: GP 0.196 / 1.123, 0.223 / 0.574).
+SIGNAL_WEIGHT = 0.5
+
+
+def fit_signal(data: TrainingData, box: Box, fmean: np.ndarray, fstd: np.ndarray, *,
+               train: np.ndarray | None = None, restarts: int = 2) -> MultiOutputGP:
+    """The signal GP of one kind: the signal over t (``y_t``) at every grid volume, with a
+    kernel of its own fitted past the snap (stop 40; :data:`SIGNAL_T_FROM`): the error
+    behind the curves that miss after their snap (docs/validation.md §3). The run time
+    averages it with the path GP's signal (:data:`SIGNAL_WEIGHT`)."""
+    kf = data_features(data)
+    ok = np.all(np.isfinite(kf), axis=1)
+    sel = (~data.holdout if train is None else train) & ok
+    end = end_column(data)
+    x = model_inputs(box, data.groups[sel], kf[sel], fmean, fstd,
+                     None if end is None else end[sel])
+    y = data.y[sel][:, :, 1]
+    mask = data.mask[sel] & np.isfinite(y)
+    reach = mask.mean(axis=0)
+    jj = np.flatnonzero((reach >= SIGNAL_MIN_REACH) & (T_GRID >= SIGNAL_T_FROM))
+    jj = jj[np.linspace(0, len(jj) - 1, min(SIGNAL_KERNEL_POINTS, len(jj))).astype(int)]
+    return fit_gp(x, np.where(mask, y, 0.0), mask, fit_outputs=jj, restarts=restarts)
+
+
+def add_signal(kinds: tuple[str, ...] = ("bending",)) -> dict[str, Any]:
+    """Fit the signal GP (:func:`fit_signal`) of ``kinds`` into the shipped model, both
+    variants, on the shipped kinds' boxes and feature scaling, keeping every other GP as
+    it is; returns the manifest entries written (``<kind>.signal``)."""
+    from multimorph._provenance import code_version
+
+    t0 = time.monotonic()
+    sets = load_reference()
+    with np.load(MODEL_FILE, allow_pickle=False) as z:
+        arrays = {k: z[k] for k in z.files}
+    manifest = json.loads(MODEL_MANIFEST.read_text())
+    emus = {family: (MultiOutputGP.from_arrays(arrays, f"emulator/{family}/"),
+                     Box.from_spec(family, reference_spec(family)))
+            for family in manifest.get("emulators", {})}
+    out: dict[str, Any] = {}
+    for kind in kinds:
+        if kind not in manifest.get("kinds", {}):
+            raise ValueError(f"fit signal: the shipped model has no {kind!r} kind")
+        data = fe_training_data(kind, sets)
+        variants = [("", "kinds", data)]
+        if kind in manifest.get("fast_kinds", {}) and FAMILY[kind] in emus:
+            variants.append(("fast/", "fast_kinds", replace(data, features=emulated_features(
+                *emus[FAMILY[kind]], data.cells, data.features))))
+        for prefix, key, d in variants:
+            p = f"{prefix}{kind}/"
+            info = manifest[key][kind]
+            box = Box(kind, tuple(info["groups"]), np.asarray(arrays[f"{p}box_low"]),
+                      np.asarray(arrays[f"{p}box_high"]))
+            kf = data_features(d)
+            train = ~d.holdout & np.all(np.isfinite(kf), axis=1)
+            sgp = fit_signal(d, box, np.asarray(arrays[f"{p}feature_mean"]),
+                             np.asarray(arrays[f"{p}feature_std"]), train=train)
+            arrays = {k: v for k, v in arrays.items() if not k.startswith(f"{p}signal/")}
+            arrays.update(sgp.to_arrays(f"{p}signal/"))
+            info["signal"] = {"training_designs": int(train.sum()),
+                              "length_scales": sgp.length.round(4).tolist(),
+                              "noise": sgp.noise, "t_from": SIGNAL_T_FROM,
+                              "min_reach": SIGNAL_MIN_REACH,
+                              "kernel_points": SIGNAL_KERNEL_POINTS,
+                              "weight": SIGNAL_WEIGHT}
+            out[f"{prefix}{kind}"] = info["signal"]
+            _log(f"{kind}{' (fast)' if prefix else ''}: signal GP on {int(train.sum())} "
+                 "designs")
+    manifest["code_version"] = code_version()
+    tmp = MODEL_FILE.with_name(f".{MODEL_FILE.stem}.tmp.npz")
+    np.savez_compressed(tmp, **arrays)
+    os.replace(tmp, MODEL_FILE)
+    MODEL_MANIFEST.write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
+    _log(f"wrote {MODEL_FILE} (signal GPs) in {time.monotonic() - t0:.1f} s")
+    return out
+
+
 #: The anchors: FE pressures predicted on their own (see the module docstring).
 ANCHORS = ("pc", "ph")
 
@@ -451,6 +547,9 @@ def _fit_one(kind: str, data: TrainingData, prefix: str, arrays: dict[str, np.nd
     p = f"{prefix}{kind}/"
     arrays.update(gp.to_arrays(p))
     arrays.update(pgp.to_arrays(f"{p}pressure/"))
+    sgp = fit_signal(data, box, fmean, fstd, train=train) if kind in SIGNAL_KINDS else None
+    if sgp is not None:
+        arrays.update(sgp.to_arrays(f"{p}signal/"))
     anchors = fit_anchors(data, box, fmean, fstd, train=train)
     for name, agp in anchors.items():
         arrays.update(agp.to_arrays(f"{p}anchor_{name}/"))
@@ -466,6 +565,11 @@ def _fit_one(kind: str, data: TrainingData, prefix: str, arrays: dict[str, np.nd
         "sets": list(KIND_SETS[kind]), "training_designs": int(train.sum()),
         "held_out": int(data.holdout.sum()), "length_scales": gp.length.round(4).tolist(),
         "pressure_length_scales": pgp.length.round(4).tolist(),
+        **({"signal": {"training_designs": int(train.sum()),
+                       "length_scales": sgp.length.round(4).tolist(), "noise": sgp.noise,
+                       "t_from": SIGNAL_T_FROM, "min_reach": SIGNAL_MIN_REACH,
+                       "kernel_points": SIGNAL_KERNEL_POINTS, "weight": SIGNAL_WEIGHT}}
+           if sgp is not None else {}),
         "noise": gp.noise, "groups": list(GROUP_NAMES[kind]),
         "features": ("emulated" if prefix else "ritz") if data.straight is None else (
             "the straight cell's calibrated " + ", ".join(STRAIGHT_FEATURES)

@@ -81,6 +81,11 @@ class _Kind:
     #: tilted cells on their straight cell's features (``_fit.STRAIGHT_FEATURES``): the end
     #: level the straight cell is read at (0.0: plate, as the tilted FE); None: Ritz features
     straight_end: float | None = None
+    #: the signal over t on the grid with a kernel of its own fitted past the snap
+    #: (``_fit.fit_signal``, stop 40); None: the path GP's signal
+    signal: MultiOutputGP | None = None
+    #: its weight in the run-time signal (the rest: the path GP's)
+    signal_weight: float = 1.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -120,13 +125,16 @@ class CalibratedModel:
                            for name in ANCHORS if f"{p}anchor_{name}/x" in arrays}
                 pressure = (MultiOutputGP.from_arrays(arrays, f"{p}pressure/")
                             if f"{p}pressure/x" in arrays else None)
+                signal = (MultiOutputGP.from_arrays(arrays, f"{p}signal/")
+                          if f"{p}signal/x" in arrays else None)
                 end, straight_end = (float(np.asarray(arrays[f"{p}{name}"])[0])
                                      if f"{p}{name}" in arrays else None
                                      for name in ("end_input", "straight_end"))
                 into[kind] = _Kind(kind, MultiOutputGP.from_arrays(arrays, p), box,
                                    np.asarray(arrays[f"{p}feature_mean"]),
                                    np.asarray(arrays[f"{p}feature_std"]), anchors, pressure,
-                                   end, straight_end)
+                                   end, straight_end, signal,
+                                   float(info.get("signal", {}).get("weight", 1.0)))
         #: the tilted cells' calibrated strip-shear factor on the Ritz rule (``_shear``)
         self.twisting_shear: dict[str, Any] | None = manifest.get("twisting_shear")
         self.emulators = {fam: MultiOutputGP.from_arrays(arrays, f"emulator/{fam}/")
@@ -252,6 +260,9 @@ class CalibratedModel:
         std_log_p = rel[:, None] * k.gp.scale.reshape(J, nq)[None, :, 0]
         if k.pressure is not None:
             values[:, :, 0], std_log_p = k.pressure.predict(x, std=True)
+        if k.signal is not None:
+            w = float(k.signal_weight)
+            values[:, :, 1] = (1.0 - w) * values[:, :, 1] + w * k.signal.predict(x)
         # support: the largest grid volume whose training designs include a close one
         reach = k.gp.mask.reshape(len(k.gp.x), J, nq)[:, :, 0]
         best = np.stack([np.where(reach[:, j][None, :], ks, 0.0).max(axis=1)

@@ -3,6 +3,7 @@
     python -m multimorph.calibrated.fit ritz-table [--samples 2048]   # Ritz features (resumable)
     python -m multimorph.calibrated.fit model [--emulators] [--kinds K ...]  # data/model.npz
     python -m multimorph.calibrated.fit twist-shear                    # tilted cells' shear factor
+    python -m multimorph.calibrated.fit signal [--kinds bending]       # the signal GP alone
 
 The FE reference data set comes first (``python -m multimorph.calibrated.build_dataset``).
 """
@@ -82,7 +83,20 @@ def main(argv: list[str] | None = None) -> int:
                     help="the shear's form in the model: the factor on the Ritz rule "
                          "(default), or the volume law where it beats the factor "
                          "(calibrated._shear)")
+    sg = sub.add_parser("signal", help="fit the signal GP (a kernel of its own past the "
+                        "snap) of these kinds into the shipped model, keeping its other GPs "
+                        "(also done by 'model')")
+    sg.add_argument("--kinds", nargs="+", metavar="KIND", default=["bending"])
     args = ap.parse_args(argv)
+    if args.what == "signal":
+        from multimorph.calibrated._fit import add_signal
+
+        try:
+            add_signal(tuple(args.kinds))
+        except ValueError as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return 2
+        return 0
     if args.what == "ritz-table":
         from multimorph.calibrated._ritz_table import build_ritz_table
 
