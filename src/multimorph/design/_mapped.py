@@ -473,10 +473,6 @@ def polish_stages(target: TargetSpec, start: Evaluation, model: Any, *, boxes: A
 #: the screenings (:func:`screen_cells`: FE in the loop, ``_pipeline._screen_stage``, and
 #: the checking model's, :func:`screen_stage`).
 SCREEN_DISTANCE = 0.03
-
-
-
-
 #: Random cells of the screened stage scored on the search model (one batched call).
 SCREEN_SAMPLES = 2048
 #: The best scored cells the screening picks the most different ones from.
