@@ -311,17 +311,27 @@ def fit_pressure(data: TrainingData, box: Box, fmean: np.ndarray, fstd: np.ndarr
     takes longer length scales, and its held-out error on the ballooning plateau
     (0.4 ≤ t ≤ 2.5) falls by about 40 % (bending: mean |Δ log P| 0.050 → 0.030;
     stretching: 0.033 → 0.019)."""
+    return _fit_quantity(data, box, fmean, fstd, 0, PRESSURE_T_FROM, 0.9,
+                         PRESSURE_KERNEL_POINTS, train=train, restarts=restarts)
+
+
+def _fit_quantity(data: TrainingData, box: Box, fmean: np.ndarray, fstd: np.ndarray,
+                  q: int, t_from: float, min_reach: float, points: int, *,
+                  train: np.ndarray | None, restarts: int) -> MultiOutputGP:
+    """A GP of grid quantity ``q`` alone at every grid volume (the rows ``train``, default
+    not held out, features finite), its kernel fitted on ``points`` grid volumes from
+    ``t_from`` on that at least ``min_reach`` of those designs reach."""
     kf = data_features(data)
     ok = np.all(np.isfinite(kf), axis=1)
     sel = (~data.holdout if train is None else train) & ok
     end = end_column(data)
     x = model_inputs(box, data.groups[sel], kf[sel], fmean, fstd,
                      None if end is None else end[sel])
-    y = data.y[sel][:, :, 0]
+    y = data.y[sel][:, :, q]
     mask = data.mask[sel] & np.isfinite(y)
     reach = mask.mean(axis=0)
-    jj = np.flatnonzero((reach >= 0.9) & (T_GRID >= PRESSURE_T_FROM))
-    jj = jj[np.linspace(0, len(jj) - 1, min(PRESSURE_KERNEL_POINTS, len(jj))).astype(int)]
+    jj = np.flatnonzero((reach >= min_reach) & (T_GRID >= t_from))
+    jj = jj[np.linspace(0, len(jj) - 1, min(points, len(jj))).astype(int)]
     return fit_gp(x, np.where(mask, y, 0.0), mask, fit_outputs=jj, restarts=restarts)
 
 
@@ -354,18 +364,15 @@ def fit_signal(data: TrainingData, box: Box, fmean: np.ndarray, fstd: np.ndarray
     kernel of its own fitted past the snap (stop 40; :data:`SIGNAL_T_FROM`): the error
     behind the curves that miss after their snap (docs/validation.md §3). The run time
     averages it with the path GP's signal (:data:`SIGNAL_WEIGHT`)."""
-    kf = data_features(data)
-    ok = np.all(np.isfinite(kf), axis=1)
-    sel = (~data.holdout if train is None else train) & ok
-    end = end_column(data)
-    x = model_inputs(box, data.groups[sel], kf[sel], fmean, fstd,
-                     None if end is None else end[sel])
-    y = data.y[sel][:, :, 1]
-    mask = data.mask[sel] & np.isfinite(y)
-    reach = mask.mean(axis=0)
-    jj = np.flatnonzero((reach >= SIGNAL_MIN_REACH) & (T_GRID >= SIGNAL_T_FROM))
-    jj = jj[np.linspace(0, len(jj) - 1, min(SIGNAL_KERNEL_POINTS, len(jj))).astype(int)]
-    return fit_gp(x, np.where(mask, y, 0.0), mask, fit_outputs=jj, restarts=restarts)
+    return _fit_quantity(data, box, fmean, fstd, 1, SIGNAL_T_FROM, SIGNAL_MIN_REACH,
+                         SIGNAL_KERNEL_POINTS, train=train, restarts=restarts)
+
+
+def _signal_info(n_train: int, sgp: MultiOutputGP) -> dict[str, Any]:
+    """The manifest entry of a kind's signal GP."""
+    return {"training_designs": int(n_train), "length_scales": sgp.length.round(4).tolist(),
+            "noise": sgp.noise, "t_from": SIGNAL_T_FROM, "min_reach": SIGNAL_MIN_REACH,
+            "kernel_points": SIGNAL_KERNEL_POINTS, "weight": SIGNAL_WEIGHT}
 
 
 def add_signal(kinds: tuple[str, ...] = ("bending",)) -> dict[str, Any]:
@@ -402,12 +409,7 @@ def add_signal(kinds: tuple[str, ...] = ("bending",)) -> dict[str, Any]:
                              np.asarray(arrays[f"{p}feature_std"]), train=train)
             arrays = {k: v for k, v in arrays.items() if not k.startswith(f"{p}signal/")}
             arrays.update(sgp.to_arrays(f"{p}signal/"))
-            info["signal"] = {"training_designs": int(train.sum()),
-                              "length_scales": sgp.length.round(4).tolist(),
-                              "noise": sgp.noise, "t_from": SIGNAL_T_FROM,
-                              "min_reach": SIGNAL_MIN_REACH,
-                              "kernel_points": SIGNAL_KERNEL_POINTS,
-                              "weight": SIGNAL_WEIGHT}
+            info["signal"] = _signal_info(int(train.sum()), sgp)
             out[f"{prefix}{kind}"] = info["signal"]
             _log(f"{kind}{' (fast)' if prefix else ''}: signal GP on {int(train.sum())} "
                  "designs")
@@ -565,11 +567,7 @@ def _fit_one(kind: str, data: TrainingData, prefix: str, arrays: dict[str, np.nd
         "sets": list(KIND_SETS[kind]), "training_designs": int(train.sum()),
         "held_out": int(data.holdout.sum()), "length_scales": gp.length.round(4).tolist(),
         "pressure_length_scales": pgp.length.round(4).tolist(),
-        **({"signal": {"training_designs": int(train.sum()),
-                       "length_scales": sgp.length.round(4).tolist(), "noise": sgp.noise,
-                       "t_from": SIGNAL_T_FROM, "min_reach": SIGNAL_MIN_REACH,
-                       "kernel_points": SIGNAL_KERNEL_POINTS, "weight": SIGNAL_WEIGHT}}
-           if sgp is not None else {}),
+        **({"signal": _signal_info(int(train.sum()), sgp)} if sgp is not None else {}),
         "noise": gp.noise, "groups": list(GROUP_NAMES[kind]),
         "features": ("emulated" if prefix else "ritz") if data.straight is None else (
             "the straight cell's calibrated " + ", ".join(STRAIGHT_FEATURES)
