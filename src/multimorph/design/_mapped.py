@@ -326,10 +326,11 @@ def mapped_design(target: TargetSpec, *, search_model: Any, check: Checker,
     if (polish_model is not None and incumbent is not None and not incumbent[1].meets
             and polish_seconds > 0):
         # first another kind of cell for the stage the checking model misses most, then
-        # the compass polish from the better of the two
+        # the compass polish from the better of the two; ``correction`` is the last
+        # round's next one, read at the incumbent
         start = screen_stage(searched, incumbent[0], incumbent[1], list(last.designs),
                              search_model, polish_model,
-                             correction=correction_factors(*incumbent, pmax), boxes=boxes,
+                             correction=correction, boxes=boxes,
                              seed=settings.seed, seen=checked_all)
         if progress is not None:
             progress(0, 0, f"screening: objective {start.objective:.3g}")
