@@ -92,13 +92,29 @@ def test_switching_pressures_within_10_percent(case):
 
 def test_earlier_module_is_hardened_when_later_activates(case):
     _, result, early, late, _, _ = case
-    pc_late = result.strains[late].response.characteristic.critical
+    later = result.strains[late]
+    pc_late = later.response.characteristic.critical
     assert rate_fraction(result.strains[early], pc_late) < HARDENED_FRACTION
-    # and the later module is then near its fastest: within ±5 % of its Pc (a calibrated
-    # response reports its Pc anchor, a smooth function of the design that may sit a few
-    # per cent from its path's steepest point: docs/validation.md §2 item 5)
-    assert max(rate_fraction(result.strains[late], p)
-               for p in np.linspace(0.95 * pc_late, 1.05 * pc_late, 11)) > HARDENED_FRACTION
+    # and the later module is then activating. A calibrated response reports its Pc
+    # anchor, a smooth function of the design that may sit a few per cent from its path's
+    # steepest point (docs/validation.md §2 item 5): where the two agree within 5 %, the
+    # later module is near its fastest within ±5 % of its Pc. A tilted cell's own path
+    # (since stop 41) may put its steepest twist further up (the gripper's twister: its
+    # path reads 38 kPa, the anchor 31.5 kPa as the FE's): there its twist rate at Pc is
+    # at least twice its mean rate below Pc (its knee has begun).
+    anchors = (later.response.meta.get("calibration") or {}).get("anchors") or {}
+    own = anchors.get("path_critical_pressure")
+    if own is None or abs(own / pc_late - 1.0) <= 0.05:
+        assert max(rate_fraction(later, p)
+                   for p in np.linspace(0.95 * pc_late, 1.05 * pc_late, 11)) \
+            > HARDENED_FRACTION
+    else:
+        P = np.asarray(later.pressure, float)
+        m = np.abs(np.asarray(later.measure, float))
+        keep = np.concatenate([[True], np.diff(P) > 0])
+        P, m = P[keep], m[keep]
+        rate = float(np.interp(pc_late, P, np.gradient(m, P)))
+        assert rate > 2.0 * float(np.interp(pc_late, P, m)) / pc_late
 
 
 def test_gripper_twists_after_its_fingers_have_bent():
@@ -108,9 +124,10 @@ def test_gripper_twists_after_its_fingers_have_bent():
     the order, fingers 28.0 then twister 28.3 kPa, the demo's test asserts it, but its
     twister completes most of its snap by 30 kPa.)
 
-    Since stop 37 the example is the FE-verified design. Since stop 40 the model's strip
-    shear is the volume law (``calibrated._shear``): its twister has turned 35° by 30 kPa
-    and 57° by 40 kPa, where FE (the twister's strip cell) turns 48° and 97°: in FE too the
+    Since stop 37 the example is the FE-verified design. Since stop 41 a tilted cell is
+    its own calibrated path (the shear weighted between the volume law and the twisting
+    kind's GP): its twister has turned 36° by 30 kPa and 83° by 40 kPa (stop 40's straight
+    path: 35° and 57°), where FE (the twister's strip cell) turns 48° and 97°: in FE too the
     twist starts with the inflation and speeds up past 30 kPa (4.8° / kPa after, 1.6° / kPa
     on average before). So the model's twist is asked to be faster after 30 kPa than before
     it, not (as for the hand-tuned gripper before) to make most of its turn there."""

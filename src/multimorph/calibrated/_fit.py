@@ -75,13 +75,16 @@ KIND_SETS = {"bending": ("bending", "bending_narrow", "bending_single", "bending
              "twisting": ("twisting", "twisting2", "twisting_narrow")}
 #: The kinds ``fit model`` fits by default. The twisting kind (shipped since stop 35) is a
 #: GP on the tilted FE cells whose inputs include the straight cell's calibrated features
-#: (:data:`STRAIGHT_FEATURES`); the run time uses its Pc and Ph anchors, onto which it maps
-#: the straight cell's path and strip shear (``_model.CalibratedModel.tilted_by_kind``): on
-#: the 27 held-out tilted designs of `twisting` Pc 11.5 / 20.2 %, Ph 16.4 / 24.6 % (median
-#: / p90) against the straight cell's 10.8 / 30.5 % and 18.9 / 40.6 %; refitted on three
-#: sets in stop 39 (`twisting_narrow` where the designer's twisting modules sit): 7.7 /
-#: 20.8 % and 10.4 / 15.8 %. Its own shear curves had a far tail (p90 285 % of the FE
-#: range) and are not used.
+#: (:data:`STRAIGHT_FEATURES`). Since stop 41 a tilted cell is its own grid path (its
+#: pressure and, weighted with the volume law, its strip shear at each chamber volume:
+#: ``_model.CalibratedModel._tilted_shear``) with the kind's Pc and Ph anchors; stops 35–40
+#: placed the straight cell's path on those anchors (docs/validation.md §2: the own path's
+#: pressure at a given volume is 3–4 % off FE, the placed one 7–14 %). Anchors on the 27
+#: held-out tilted designs of `twisting`: Pc 11.5 / 20.2 %, Ph 16.4 / 24.6 % (median / p90)
+#: against the straight cell's 10.8 / 30.5 % and 18.9 / 40.6 %; refitted on three sets in
+#: stop 39 (`twisting_narrow` where the designer's twisting modules sit): 7.7 / 20.8 % and
+#: 10.4 / 15.8 %. (Stop 34's own shear curves, on 65 designs, had a far tail: p90 285 % of
+#: the FE range; on 268 designs, weighted with the law, 51 %.)
 DEFAULT_KINDS = ("bending", "stretching", "twisting")
 #: A kind is fitted only with at least this many training designs per GP input (its
 #: groups and three Ritz features): with fewer, the linear means alone nearly interpolate

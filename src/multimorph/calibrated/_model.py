@@ -102,6 +102,8 @@ class GridPrediction:
     #: anchors: predicted log(Pc/μ), log(Ph/μ) (n, 2) and their predictive std (NaN: none)
     anchors: np.ndarray | None = None
     anchor_std: np.ndarray | None = None
+    #: the path GP's predictive std of the signal over t, ``values[:, :, 1]`` (n, J)
+    std_signal: np.ndarray | None = None
 
 
 class CalibratedModel:
@@ -258,6 +260,7 @@ class CalibratedModel:
         J = len(T_GRID)
         values = mean.reshape(len(x), J, nq)
         std_log_p = rel[:, None] * k.gp.scale.reshape(J, nq)[None, :, 0]
+        std_signal = rel[:, None] * k.gp.scale.reshape(J, nq)[None, :, 1]
         if k.pressure is not None:
             values[:, :, 0], std_log_p = k.pressure.predict(x, std=True)
         if k.signal is not None:
@@ -279,7 +282,7 @@ class CalibratedModel:
                     m, sd = k.anchors[name].predict(x, std=True)
                     anchors[:, j], anchor_std[:, j] = m[:, 0], sd[:, 0]
         return GridPrediction(kind, values, std_log_p, t_end, p_end, inside, outside,
-                              anchors, anchor_std)
+                              anchors, anchor_std, std_signal)
 
     # ------------------------------------------------------------------ responses
     def responses(self, cells: Sequence[CellGeometry | TiltedCell], p_max: float, *,
@@ -301,13 +304,7 @@ class CalibratedModel:
         for i, c in enumerate(cells):
             by_kind.setdefault(kind_of(c), []).append(i)
         for kind, idx in by_kind.items():
-            if kind == "twisting" and kind in kinds:
-                for i, r in zip(idx, self.tilted_by_kind(
-                        [cells[i] for i in idx], p_max,  # type: ignore[misc]
-                        fallback=fallback, fast=fast), strict=True):
-                    out[i] = r
-                continue
-            if kind == "twisting":
+            if kind == "twisting" and kind not in kinds:
                 for i, r in zip(idx, self.tilted_by_straight(
                         [cells[i] for i in idx], p_max,  # type: ignore[misc]
                         fallback=fallback, fast=fast), strict=True):
@@ -324,7 +321,17 @@ class CalibratedModel:
             paths = dict(zip(rows, paths_from_grid(pred.values[rows], [cells[idx[r]]
                                                                         for r in rows],
                                                    pred.t_end[rows]), strict=True))
+            if kind == "twisting":
+                # a tilted cell outside the twisting kind's support: its straight cell's
+                # calibrated answer (itself the Ritz model's outside the bending kind's)
+                rest = [i for r, i in enumerate(idx) if not pred.inside[r]]
+                for i, res in zip(rest, self.tilted_by_straight(
+                        [cells[i] for i in rest], p_max,  # type: ignore[misc]
+                        fallback=fallback, fast=fast), strict=True):
+                    out[i] = res
             for r, i in enumerate(idx):
+                if not pred.inside[r] and kind == "twisting":
+                    continue
                 if not pred.inside[r]:
                     sup = self.support(cells[i])
                     if sup["inside"]:  # in the box, but without Ritz features
@@ -342,8 +349,9 @@ class CalibratedModel:
     def tilted_by_straight(self, cells: Sequence[TiltedCell], p_max: float, *,
                            fallback: bool = True, fast: bool = False,
                            ) -> list[Response | Exception]:
-        """Tilted cells answered by their straight cell (a model without a twisting kind;
-        with one, :meth:`tilted_by_kind` places this answer on its anchors): the straight
+        """Tilted cells answered by their straight cell (a model without a twisting kind,
+        and with one the tilted cells outside its box; inside it a tilted cell is its own
+        calibrated path since stop 41, :meth:`_tilted_shear`): the straight
         cell's calibrated response, read on the strip shear of
         the Ritz rule γ = ε sin 2β times the factor calibrated on the tilted FE cells
         (``_shear``). The straight cell is read at the plate level (since stop 34;
@@ -356,81 +364,6 @@ class CalibratedModel:
         return [r if isinstance(r, Exception) else _straight_for_tilted(r, c,
                                                                         self.twisting_shear)
                 for c, r in zip(cells, straight, strict=True)]
-
-    def tilted_by_kind(self, cells: Sequence[TiltedCell], p_max: float, *,
-                       fallback: bool = True, fast: bool = False,
-                       ) -> list[Response | Exception]:
-        """Tilted cells with the model's twisting kind (since stop 35): the straight
-        cell's path and strip shear (:meth:`tilted_by_straight`) with its pressures moved
-        onto the twisting kind's Pc and Ph anchors — a monotone piecewise-linear map of
-        pressure taking the straight cell's Pc to the kind's Pc and its Ph to the kind's Ph
-        (one ratio below Pc, and above Ph; one ratio throughout where either has no Ph).
-        The path keeps the straight cell's shape (its ballooning plateau where it has one)
-        and the tilted-cell calibration places it. A cell outside the twisting kind's box
-        or without its anchors keeps the straight cell's answer."""
-        pred = self.grid(cells, fast=fast)
-        # the calibrated straight path to its data's end (the map may lower its pressures);
-        # a cell without one falls back as the straight cell would, traced to p_max only
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", CalibrationWarning)
-            straight = self.tilted_by_straight(cells, 4.0 * float(p_max), fallback=False,
-                                               fast=fast)
-        redo = [i for i, s in enumerate(straight) if isinstance(s, Exception)]
-        if redo:
-            for i, s in zip(redo, self.tilted_by_straight(
-                    [cells[i] for i in redo], p_max, fallback=fallback, fast=fast),
-                    strict=True):
-                straight[i] = s
-        k = (self.fast_kinds if fast else self.kinds)["twisting"]
-        out: list[Response | Exception] = []
-        for r, (cell, s) in enumerate(zip(cells, straight, strict=True)):
-            if isinstance(s, Exception) or not str(s.meta.get("model", "")).startswith(
-                    "calibrated"):
-                out.append(s)
-                continue
-            anchors = pred.anchors[r] if pred.anchors is not None else (np.nan, np.nan)
-            pc_t, ph_t = (math.exp(v) * cell.cell.mu if math.isfinite(v) else None
-                          for v in anchors)
-            ch = s.characteristic
-            if not pred.inside[r] or pc_t is None or ch.critical is None:
-                out.append(_truncated_response(s, cell, p_max))
-                continue
-            pc_s, ph_s = ch.critical, ch.hardening
-            if ph_t is not None and ph_s is not None and ph_t > pc_t and ph_s > pc_s:
-                knots_s, knots_t = [0.0, pc_s, ph_s], [0.0, pc_t, ph_t]
-            else:
-                knots_s, knots_t, ph_t = [0.0, pc_s], [0.0, pc_t], None
-            P = np.asarray(s.path.pressure, float)
-            last = knots_t[-1] / knots_s[-1]
-            warped = np.where(P <= knots_s[-1], np.interp(P, knots_s, knots_t),
-                              knots_t[-1] + (P - knots_s[-1]) * last)
-            path = replace(s.path, pressure=warped)
-            path, reached = _truncate(path, p_max)
-            resp = build_response(path, length=cell.cell.length, shear_modulus=cell.cell.mu,
-                                  backend=s.backend,
-                                  break_stretch=cell.cell.material.break_stretch,
-                                  signal="twist_rate")
-            sd = (None if pred.anchor_std is None
-                  else (float(pred.anchor_std[r, 0]), float(pred.anchor_std[r, 1])))
-            char, info = anchored_characteristic(resp, pc_t, ph_t, sd)
-            resp = replace(resp, characteristic=char)
-            cal = dict(s.meta.get("calibration") or {})
-            cal["kind"] = "twisting"
-            cal["anchors"] = info
-            cal["reached_p_max"] = bool(reached)
-            for j, (name, v) in enumerate((("critical_pressure_range", char.critical),
-                                           ("hardening_pressure_range", char.hardening))):
-                cal[name] = (None if v is None or sd is None or not math.isfinite(sd[j])
-                             else [v * math.exp(-sd[j]), v * math.exp(sd[j])])
-            cal["twisting"] = (
-                "the straight cell's calibrated response (plate level) and strip shear ("
-                + cal.get("twisting", "").split("; ", 1)[-1]
-                + "), its pressures moved onto Pc and Ph calibrated on the tilted FE cells"
-                + ("" if k.straight_end is None else
-                   f" (their GP reads the straight cell at end level {k.straight_end:g})"))
-            out.append(resp.with_meta(**{**s.meta, "points": len(path),
-                                         "calibration": cal}))
-        return out
 
     def response(self, cell: CellGeometry | TiltedCell, p_max: float) -> Response:
         """One cell's :class:`Response` (raises where it has none)."""
@@ -465,8 +398,9 @@ class CalibratedModel:
         p_data = float(pred.p_end[r])
         signal = {"bending": "curvature", "stretching": "axial_stretch",
                   "twisting": "twist_rate"}[pred.kind]
+        shear: dict[str, Any] = {}
         if pred.kind == "twisting":
-            path = replace(path, twist_rate=np.asarray(path.extra["shear"]))
+            path, shear = self._tilted_shear(cell, path, pred, r)  # type: ignore[arg-type]
         path, reached = _truncate(path, min(p_max, p_data))
         reached = reached and p_max <= p_data
         resp = build_response(path, length=c.length, shear_modulus=c.mu, backend="calibrated",
@@ -509,7 +443,80 @@ class CalibratedModel:
                     "data_pressure_end": p_data if math.isfinite(p_data) else None,
                     "reached_p_max": reached,
                     "model_version": self.manifest.get("code_version", "")}}
+        if shear:
+            sd = shear.pop("std")
+            g = np.abs(np.asarray(path.twist_rate, float))
+            at = (int(np.argmin(np.abs(np.asarray(path.pressure) - ch.critical)))
+                  if ch.critical is not None else len(path) - 1)
+            rel = float(sd[min(at, len(sd) - 1)] / max(float(g[at]), 1e-12))
+            meta["calibration"].update(shear, shear_range=[math.exp(-rel), math.exp(rel)])
         return resp.with_meta(**meta)
+
+    def _tilted_shear(self, cell: TiltedCell, path: EquilibriumPath, pred: GridPrediction,
+                      r: int) -> tuple[EquilibriumPath, dict[str, Any]]:
+        """A tilted cell's strip shear along its calibrated path (since stop 41): the
+        twisting kind's GP of the shear over t and the volume law of the chamber volume
+        (:mod:`._shear`), weighted by the inverse of their variances (:func:`_weighted_shear`);
+        the GP alone where the model has no volume law. Returns the path (``twist_rate``
+        and ``extra["shear"]``) and the calibration record (with the shear's std ``std``
+        along the path, popped by the caller)."""
+        from multimorph.calibrated._shear import shear_of_volume
+
+        fit = self.twisting_shear or {}
+        law = fit.get("volume_law") if fit.get("form") == "volume" else None
+        v = np.asarray(path.volume, float)
+        if law is not None:
+            rule, inside = shear_of_volume(law, cell_groups(cell), v / v[0])
+            sigma = float(law["sigma_log"])
+            how = ("the twisting kind's GP of the strip shear over the chamber volume and "
+                   "the volume law (ln(γ / sin 2β) linear in ln(V/V0 − 1), the tilt, ln Jm "
+                   f"and the log groups, {law['training_designs']} tilted FE cells"
+                   + ("" if inside else "; its groups held at the edges of the data")
+                   + "), weighted by the inverse of their variances")
+        else:
+            rule, sigma = np.zeros_like(v), math.inf
+            how = "the twisting kind's GP of the strip shear over the chamber volume"
+        path = replace(path, extra={**(path.extra or {}), "shear": rule})
+        assert pred.std_signal is not None
+        path, sd = _weighted_shear(path, sigma, pred.values[r, :, 1], pred.std_signal[r])
+        return path, {"twisting": ("the tilted cell's own calibrated path: its pressure at "
+                                   "each chamber volume from the tilted FE cells' GP "
+                                   "(inputs: the groups, the tilt and the straight cell's "
+                                   "calibrated pressures at the plate level); " + how),
+                      "shear_law": "volume+gp" if law is not None else "gp", "std": sd}
+
+
+def _weighted_shear(path: EquilibriumPath, sigma_rule: float, y_t: np.ndarray,
+                    sd_y_t: np.ndarray) -> tuple[EquilibriumPath, np.ndarray]:
+    """The strip shear along ``path`` (which carries the straight cell's rule as
+    ``extra["shear"]``) combined with the twisting kind's GP of the shear over t at each
+    chamber volume (``y_t`` on the grid, its predictive std ``sd_y_t``), each weighted by
+    the inverse of its variance: the rule's (γ σ)², σ the std of its log; the GP's
+    (sd · t)². On the held-out tilted cells the GP is the better estimate in the median
+    (its largest shear error over its FE range 15 % against the volume law's 28 %) and
+    the law in the tail (p90 50 % against the GP's 70 %, on cells that barely shear); the
+    weighted shear has both (15 % / 51 %; docs/validation.md §2). Returns the path with
+    the combined shear (``twist_rate`` and ``extra["shear"]``) and its std."""
+    v = np.asarray(path.volume, float)
+    t = np.log(v / v[0])
+    rule = np.asarray((path.extra or {}).get("shear", path.twist_rate), float)
+    g_kind = np.interp(t, T_GRID, y_t) * t
+    var_kind = (np.interp(t, T_GRID, sd_y_t) * np.abs(t)) ** 2
+    var_rule = ((rule * sigma_rule) ** 2 if math.isfinite(sigma_rule)
+                else np.full_like(t, np.inf))
+    # the weight of the GP, var_rule / (var_rule + var_kind): 1 without a rule, ½ where
+    # both are exact (t = 0: no shear either way)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        w = np.where(np.isinf(var_rule), 1.0, var_rule / (var_rule + var_kind))
+        var = np.where(np.isinf(var_rule), var_kind,
+                       var_rule * var_kind / (var_rule + var_kind))
+    both_exact = (var_rule == 0.0) & (var_kind == 0.0)
+    w = np.where(both_exact, 0.5, w)
+    var = np.where(both_exact, 0.0, var)
+    gamma = w * g_kind + (1.0 - w) * rule
+    sd = np.sqrt(var)
+    return (replace(path, twist_rate=gamma, extra={**(path.extra or {}), "shear": gamma}),
+            sd)
 
 
 def _straight_for_tilted(r: Response, cell: TiltedCell,
@@ -567,19 +574,6 @@ def _straight_for_tilted(r: Response, cell: TiltedCell,
                            "(plate level); the strip shear follows the Ritz rule "
                            "γ = ε sin 2β")
     return resp.with_meta(**{**r.meta, "calibration": cal})
-
-
-def _truncated_response(r: Response, cell: TiltedCell, p_max: float) -> Response:
-    """``r`` (a calibrated tilted-cell response traced past ``p_max``) cut at ``p_max``."""
-    path, reached = _truncate(r.path, p_max)
-    if len(path) == len(r.path) and not reached:
-        return r
-    out = build_response(path, length=r.length, shear_modulus=r.shear_modulus,
-                         backend=r.backend, break_stretch=cell.cell.material.break_stretch,
-                         signal="twist_rate")
-    out = replace(out, characteristic=r.characteristic)
-    cal = {**(r.meta.get("calibration") or {}), "reached_p_max": bool(reached)}
-    return out.with_meta(**{**r.meta, "points": len(path), "calibration": cal})
 
 
 def _truncate(path: EquilibriumPath, p_max: float) -> tuple[EquilibriumPath, bool]:

@@ -1,10 +1,12 @@
 r"""The tilted cells' strip shear, calibrated against FE: a law of the chamber volume
 (since stop 40), or a factor on the Ritz rule.
 
-A twisting module's tilted cell takes its path from its straight cell's calibrated
-response (the tilt barely changes how a chamber balloons; since stop 35 its pressures are
-placed on the twisting kind's Pc and Ph anchors, ``CalibratedModel.tilted_by_kind``), and
-its strip shear from the Ritz rule γ = ε sin 2|β| (ε the mid-height strain along the
+A twisting module's tilted cell took its path from its straight cell's calibrated
+response until stop 40 (since stop 35 with its pressures placed on the twisting kind's Pc
+and Ph anchors; since stop 41 the twisting kind's own path, its shear this module's law
+weighted with the kind's GP: ``CalibratedModel._tilted_shear``; the straight cell's
+answer remains for a model without a twisting kind and for tilted cells outside its box),
+and its strip shear from the Ritz rule γ = ε sin 2|β| (ε the mid-height strain along the
 chamber). On the FE reference data set's
 tilted cells that rule over-predicts the shear: FE / rule is a median 0.59 past Pc, lower at
 small tilts (the strip's bottom layer and side walls resist the shear that a free strip of
