@@ -49,7 +49,7 @@ REFERENCE_SETS = {"bending": "bending", "stretching": "stretching", "twisting": 
                   "stretching_mirror": "stretching", "stretching_narrow_mirror": "stretching",
                   "grid24_mirror": "bending", "yeoh_mirror": "bending",
                   "twisting2": "twisting", "stretching2_mirror": "stretching",
-                  "twisting_narrow": "twisting"}
+                  "twisting_narrow": "twisting", "twisting3": "twisting"}
 #: Sets kept out of the calibration whole (validation only).
 VALIDATION_SETS = ("grid24", "yeoh", "grid24_mirror", "yeoh_mirror")
 #: Path quantities stored per design (SI; NaN where a backend does not give one).
