@@ -29,11 +29,12 @@ GRIPPER_FILES = ("gripper.toml", "summary.json", "sequence.png", "shapes.png", "
 #: How far each cell model of the demo is from 3D FE (docs/validation.md §3, held-out cells:
 #: the bending cells inside a module (bending_mirror, 88), the stretching cells
 #: (stretching_mirror, 20, and stretching2_mirror, 48; stop 38's refit) and the tilted
-#: cells (twisting, twisting2 and twisting_narrow, 62; stop 39's refit); stop 40's numbers.
+#: cells (twisting, twisting2 and twisting_narrow, 62; stop 39's refit, on their own path
+#: since stop 41); stop 41's numbers.
 MODEL_DISTANCE = {
     "calibrated-fast": "the Ritz model corrected against 3D FE, on emulated Ritz features; "
                        "held-out |ΔPc|/Pc median 3.1 % on bending cells, 1.4-2.2 % on "
-                       "stretching cells, 5-9 % on tilted (twisting) cells, docs/validation.md",
+                       "stretching cells, 4-8 % on tilted (twisting) cells, docs/validation.md",
     "calibrated": "the Ritz model corrected against 3D FE; held-out |ΔPc|/Pc median 3.2 % "
                   "on bending cells, 1.3-2.2 % on stretching cells, 4-8 % on tilted "
                   "(twisting) cells, docs/validation.md",
