@@ -83,3 +83,40 @@ def test_a_value_beyond_the_other_path_is_not_known_not_a_miss() -> None:
     assert one_sided(40e3, None, 60e3, 50e3)
     assert not one_sided(40e3, None, 60e3, 35e3)
     assert not one_sided(None, None, 1.0, 1.0) and not one_sided(1.0, 2.0, 5.0, 5.0)
+
+
+def _runaway(at: float) -> Response:
+    """κd 0.1 P/P* up to a limit point at P* = ``at`` × Pc, then the unstable branch (the
+    pressure falling 1 %, κd rising to 1.2) with nothing stable to land on: under pressure
+    control the cell runs away at P*."""
+    from multimorph.response import build_response
+
+    up = np.linspace(0.0, 1.0, 41)
+    down = np.linspace(0.0, 1.0, 21)[1:]
+    P = np.concatenate([up, 1.0 - 0.01 * down]) * at * PC
+    kd = np.concatenate([0.1 * up, 0.1 + 1.1 * down])
+    stable = np.concatenate([np.ones(41, bool), np.zeros(20, bool)])
+    n = len(P)
+    path = EquilibriumPath(pressure=P, curvature=kd / LENGTH, twist_rate=np.zeros(n),
+                           axial_stretch=np.ones(n), volume=np.linspace(1.0, 5.0, n),
+                           peak_stretch=np.linspace(1.0, 3.0, n), stable=stable)
+    return build_response(path, length=LENGTH, shear_modulus=100e3, backend="test",
+                          signal="curvature")
+
+
+def test_a_runaway_is_a_vertical_ray_of_the_graph() -> None:
+    """A loading curve that ends at a limit point with nothing stable to land on (a
+    runaway: the signal grows without bound at that pressure) is drawn as a vertical ray
+    there. Against FE that snaps at the same pressure to a far state (its data end) the
+    graph error is the pressure shift; a runaway 20 % early is 20 % off; the vertical
+    measure sees the jump's height either way."""
+    fe = _snap(0.0)
+    fe = _response(np.asarray(fe.path.pressure)[:42], np.asarray(fe.path.curvature)[:42]
+                   * LENGTH, PC)            # FE: the rise, then the landing at κd 1, ends
+    same = _runaway(1.005)
+    assert np.asarray(same.loading.pressure)[-1] == pytest.approx(1.005 * PC)
+    c = compare(same, fe, "bending")
+    assert c.curve_error > 0.7
+    assert c.graph_error == pytest.approx(0.005, abs=2e-3)
+    early = compare(_runaway(0.8), fe, "bending")
+    assert 0.15 < early.graph_error < 0.25

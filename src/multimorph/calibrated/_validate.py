@@ -14,7 +14,10 @@ and the tests. Definitions (the same for every model compared):
   largest over the pressures is the design's curve error (the criterion: ≤ 10 %).
 * graph error (the curve as a graph): on the same FE points, the distance from each point
   to the model's loading curve (its points joined by straight segments, a jump at a limit
-  point drawn as the segment across it) in the plane of P / Pc (FE) and y / the FE range;
+  point drawn as the segment across it, and a runaway — a limit point with nothing stable
+  to land on further along the path, where the signal grows without bound at that
+  pressure — as a vertical ray; since stop 41) in the plane of P / Pc (FE) and y / the FE
+  range;
   the largest is the design's graph error. At a snap (κ jumps at Pc) the vertical error
   counts a shift of the jump by any pressure, however small, as the jump's height; the
   graph error counts it as that shift over Pc. ``benchmarks/fe_mesh_curves.py`` measures
@@ -110,8 +113,44 @@ def graph_error(model: Response, fe: Response, kind: str) -> float:
     rng = float(np.max(yf[sel]) - np.min(yf[sel]))
     if not rng > 0:
         return math.nan
-    d = _distance_to_polyline(Pf[sel] / pcf, yf[sel] / rng, Pm[okm] / pcf, ym[okm] / rng)
+    Pm, ym = Pm[okm], ym[okm]
+    ray = _runaway_ray(model, kind)
+    if ray is not None:
+        # a loading curve that ends in a runaway: the signal grows without bound at that
+        # pressure, a vertical ray (as far as FE's own range can reach)
+        Pm = np.append(Pm, Pm[-1])
+        ym = np.append(ym, ym[-1] + ray * 10.0 * (rng + float(np.max(np.abs(yf[sel])))))
+    d = _distance_to_polyline(Pf[sel] / pcf, yf[sel] / rng, Pm / pcf, ym / rng)
     return float(d.max())
+
+
+def _runaway_ray(resp: Response, kind: str) -> float | None:
+    """The direction (±1) in which the signal runs away where ``resp``'s loading curve ends
+    at a limit point with nothing stable to land on further along its path (a runaway under
+    pressure control: :func:`multimorph.response.observed_positions`), read on the path past
+    that point; None where the loading curve does not end so."""
+    from multimorph.response import observed_positions
+
+    path = resp.path
+    pos, _snap, complete = observed_positions(np.asarray(path.pressure, float),
+                                              np.asarray(path.stable, bool))
+    if complete:
+        return None
+    y = signal_of_path(path, kind, resp.length)
+    i = math.floor(float(pos[-1]))
+    step = float(y[-1] - y[i])
+    if step == 0.0 or not math.isfinite(step):
+        return None
+    return math.copysign(1.0, step)
+
+
+def signal_of_path(path: EquilibriumPath, kind: str, length: float) -> np.ndarray:
+    """The kind's signal along a whole path (as :func:`signal_of_loading` on the loading)."""
+    if kind == "bending":
+        return np.asarray(path.curvature, float) * length
+    if kind == "stretching":
+        return np.asarray(path.axial_stretch, float) - 1.0
+    return np.asarray(path.twist_rate, float)
 
 
 @dataclass(frozen=True)
