@@ -25,23 +25,24 @@ def fit_twist_shear(form: str = "volume") -> dict[str, Any]:
     p90) or ``"factor"``."""
     from multimorph.calibrated._fit import MODEL_MANIFEST
     from multimorph.calibrated._model import load_model
-    from multimorph.calibrated._shear import fit_shear_factor, shear_samples
+    from multimorph.calibrated._shear import VOLUME_SOURCE, fit_shear_factor, shear_samples
 
     load_model.cache_clear()
     model = load_model()
     model.twisting_shear = None                 # sample the bare rule
     samples = shear_samples(model)
     fit = fit_shear_factor(samples, form)
-    if fit.get("form") == "volume":
-        # the volume the law is read at is the model's own with that law: the shear's knees
-        # place the tilted path's pressures on the anchors, so the volume at the read
-        # pressure moves with the law; one more pass reads it there
+    fit["volume_source"] = VOLUME_SOURCE
+    if fit.get("form") == "volume" and VOLUME_SOURCE == "model":
+        # the volume the law is read at is the model's own with that law (stops 39-40: the
+        # shear's knees placed the tilted path's pressures on the anchors, so the volume at
+        # the read pressure moved with the law); one more pass reads it there
         model.twisting_shear = fit
         again = {(s["set"], s["design"]): s for s in shear_samples(model)}
         samples = [{**s, "volume": again[key]["volume"], "shape": again[key]["shape"]}
                    if (key := (s["set"], s["design"])) in again
                    else {**s, "volume": math.nan} for s in samples]
-        fit = fit_shear_factor(samples, form)
+        fit = {**fit_shear_factor(samples, form), "volume_source": VOLUME_SOURCE}
     manifest = json.loads(MODEL_MANIFEST.read_text())
     manifest["twisting_shear"] = fit
     MODEL_MANIFEST.write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
