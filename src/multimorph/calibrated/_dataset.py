@@ -50,8 +50,11 @@ REFERENCE_SETS = {"bending": "bending", "stretching": "stretching", "twisting": 
                   "grid24_mirror": "bending", "yeoh_mirror": "bending",
                   "twisting2": "twisting", "stretching2_mirror": "stretching",
                   "twisting_narrow": "twisting", "twisting3": "twisting"}
-#: Sets kept out of the calibration whole (validation only).
-VALIDATION_SETS = ("grid24", "yeoh", "grid24_mirror", "yeoh_mirror")
+#: Sets kept out of the calibration whole (validation only). ``twisting3`` (stop 41, 116
+#: tilted cells over the whole box): the twisting kind refitted with it was no better on
+#: the pooled held-out tilted cells (docs/validation.md §4), so it checks the shipped kind
+#: on cells it never saw, all of them.
+VALIDATION_SETS = ("grid24", "yeoh", "grid24_mirror", "yeoh_mirror", "twisting3")
 #: Path quantities stored per design (SI; NaN where a backend does not give one).
 CURVES = ("pressure", "curvature", "peak_stretch", "axial_stretch", "volume", "bend_angle",
           "shear", "twist_rate")

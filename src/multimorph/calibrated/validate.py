@@ -46,7 +46,8 @@ CHECKS = (("bending", "bending"), ("bending", "bending_narrow"), ("bending", "be
           ("bending", "grid24_mirror"), ("bending", "yeoh_mirror"),
           ("stretching", "stretching_mirror"), ("stretching", "stretching_narrow_mirror"),
           ("stretching", "stretching2_mirror"),
-          ("twisting", "twisting"), ("twisting", "twisting2"), ("twisting", "twisting_narrow"))
+          ("twisting", "twisting"), ("twisting", "twisting2"), ("twisting", "twisting_narrow"),
+          ("twisting", "twisting3"))
 
 
 def unseen_designs(manifest: dict[str, Any], kind: str, set_name: str, design: np.ndarray,
