@@ -64,14 +64,7 @@ def fe_response(path: dict[str, np.ndarray], cell: Any, kind: str, n_cells: int 
 def signal_of_loading(resp: Response, kind: str) -> tuple[np.ndarray, np.ndarray]:
     """(P, y) of the loading curve: κd (bending), λ − 1 (stretching), γ (tilted)."""
     lo = resp.loading
-    P = np.asarray(lo.pressure, float)
-    if kind == "bending":
-        y = np.asarray(lo.curvature, float) * resp.length
-    elif kind == "stretching":
-        y = np.asarray(lo.axial_stretch, float) - 1.0
-    else:
-        y = np.asarray(lo.twist_rate, float)
-    return P, y
+    return np.asarray(lo.pressure, float), signal_of_path(lo, kind, resp.length)
 
 
 def _rel(a: float | None, b: float | None) -> float:
@@ -145,7 +138,7 @@ def _runaway_ray(resp: Response, kind: str) -> float | None:
 
 
 def signal_of_path(path: EquilibriumPath, kind: str, length: float) -> np.ndarray:
-    """The kind's signal along a whole path (as :func:`signal_of_loading` on the loading)."""
+    """The kind's signal along a path (a whole path, or a response's loading curve)."""
     if kind == "bending":
         return np.asarray(path.curvature, float) * length
     if kind == "stretching":

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 from typing import Any
 
@@ -32,17 +31,10 @@ def fit_twist_shear(form: str = "volume") -> dict[str, Any]:
     model.twisting_shear = None                 # sample the bare rule
     samples = shear_samples(model)
     fit = fit_shear_factor(samples, form)
+    # the volume the law is read at does not depend on the law (FE's, or the tilted
+    # cell's own path since stop 41: stops 39-40 read it on the straight path placed on
+    # anchors that the shear's knees moved, and sampled twice)
     fit["volume_source"] = VOLUME_SOURCE
-    if fit.get("form") == "volume" and VOLUME_SOURCE == "model":
-        # the volume the law is read at is the model's own with that law (stops 39-40: the
-        # shear's knees placed the tilted path's pressures on the anchors, so the volume at
-        # the read pressure moved with the law); one more pass reads it there
-        model.twisting_shear = fit
-        again = {(s["set"], s["design"]): s for s in shear_samples(model)}
-        samples = [{**s, "volume": again[key]["volume"], "shape": again[key]["shape"]}
-                   if (key := (s["set"], s["design"])) in again
-                   else {**s, "volume": math.nan} for s in samples]
-        fit = {**fit_shear_factor(samples, form), "volume_source": VOLUME_SOURCE}
     manifest = json.loads(MODEL_MANIFEST.read_text())
     manifest["twisting_shear"] = fit
     MODEL_MANIFEST.write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
