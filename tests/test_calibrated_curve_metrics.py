@@ -120,3 +120,33 @@ def test_a_runaway_is_a_vertical_ray_of_the_graph() -> None:
     assert c.graph_error == pytest.approx(0.005, abs=2e-3)
     early = compare(_runaway(0.8), fe, "bending")
     assert 0.15 < early.graph_error < 0.25
+
+
+def test_the_band_score_is_the_error_in_units_of_the_models_sigma() -> None:
+    """|log(model / FE)| over the σ of log P that the model's ±1σ band gives, and the
+    summary's share of designs inside ±1σ and ±2σ: a model 10 % low with a band of
+    exp(±0.06) is 1.76σ off (inside ±2σ, outside ±1σ); no band (the Ritz model), no
+    score."""
+    import math
+
+    from multimorph.calibrated._validate import band_z, summary
+
+    fe = _snap(0.0)
+    low = _snap(-0.1)
+    assert np.isnan(band_z(low, PC, "critical"))          # no band
+    pc_m = 0.9 * PC
+    banded = low.with_meta(calibration={"critical_pressure_range": [pc_m * math.exp(-0.06),
+                                                                    pc_m * math.exp(0.06)],
+                                        "hardening_pressure_range": [None, None]})
+    z = band_z(banded, PC, "critical")
+    assert z == pytest.approx(abs(math.log(0.9)) / 0.06, rel=1e-9)
+    assert np.isnan(band_z(banded, None, "critical"))
+    c = compare(banded, fe, "bending")
+    assert c.pc_z == pytest.approx(z) and np.isnan(c.ph_z)
+    exact = compare(fe.with_meta(calibration={"critical_pressure_range": [0.9 * PC, 1.1 * PC]}),
+                    fe, "bending")
+    assert exact.pc_z == pytest.approx(0.0, abs=1e-12)
+    s = summary([c, exact])
+    assert s["pc_within_1sigma"] == pytest.approx(0.5)
+    assert s["pc_within_2sigma"] == pytest.approx(1.0)
+    assert np.isnan(s["ph_within_1sigma"])

@@ -23,6 +23,9 @@ and the tests. Definitions (the same for every model compared):
   graph error counts it as that shift over Pc. ``benchmarks/fe_mesh_curves.py`` measures
   both between the data set's FE and a finer FE mesh.
 * signal at 1.5 Pc: y on each model's loading curve at 1.5 × the FE Pc.
+* the uncertainty (stop 42): |log(model / FE)| of Pc and Ph over the σ of log P that the
+  model's own ±1σ band gives (``calibration.critical_pressure_range``); the share of
+  designs within 1σ and 2σ (an honest Gaussian band: 68 % and 95 %).
 """
 
 from __future__ import annotations
@@ -35,8 +38,8 @@ import numpy as np
 
 from multimorph.response import EquilibriumPath, Response, build_response
 
-__all__ = ["DesignComparison", "compare", "fe_response", "graph_error", "signal_of_loading",
-           "summary"]
+__all__ = ["DesignComparison", "band_z", "compare", "fe_response", "graph_error",
+           "signal_of_loading", "summary"]
 
 
 def fe_response(path: dict[str, np.ndarray], cell: Any, kind: str, n_cells: int = 1,
@@ -167,6 +170,11 @@ class DesignComparison:
     #: the highest pressure of each path (a value the other lacks above it is not known)
     top_fe: float = math.nan
     top_model: float = math.nan
+    #: |log(model / FE)| of Pc and Ph over the model's own σ of log P (its ±1σ band,
+    #: ``calibration.critical_pressure_range`` / ``hardening_pressure_range``); NaN where
+    #: either value or the band is missing (the Ritz model has none)
+    pc_z: float = math.nan
+    ph_z: float = math.nan
 
     def to_dict(self) -> dict[str, Any]:
         return dict(self.__dict__)
@@ -197,7 +205,21 @@ def compare(model: Response, fe: Response, kind: str, set_name: str = "",
             y15m = float(_interp(Pm, ym, np.array([top]))[0])
     return DesignComparison(set_name, int(design), kind, pcf, pcm, phf, phm, _rel(pcm, pcf),
                             _rel(phm, phf), curve, y15f, y15m, covered,
-                            graph_error(model, fe, kind), _top(fe), _top(model))
+                            graph_error(model, fe, kind), _top(fe), _top(model),
+                            band_z(model, pcf, "critical"), band_z(model, phf, "hardening"))
+
+
+def band_z(model: Response, fe_value: float | None, which: str) -> float:
+    """|log(model / FE)| of the model's ``which`` pressure ("critical", "hardening") over
+    the σ of log P its ±1σ band gives (NaN without both values and a band)."""
+    own = getattr(model.characteristic, which)
+    band = ((model.meta.get("calibration") or {}).get(f"{which}_pressure_range")
+            or (None, None))
+    lo, hi = band
+    if (own is None or fe_value is None or lo is None or hi is None
+            or not (0 < lo < hi and own > 0 and fe_value > 0)):
+        return math.nan
+    return abs(math.log(own / fe_value)) / (0.5 * math.log(hi / lo))
 
 
 def _top(r: Response) -> float:
@@ -225,6 +247,10 @@ def summary(rows: list[DesignComparison]) -> dict[str, Any]:
         return {"n": int(a.size), "median": float(np.median(a)),
                 "p90": float(np.percentile(a, 90)), "max": float(a.max())}
 
+    def within(z: list[float], k: float) -> float:
+        a = np.array([x for x in z if math.isfinite(x)])
+        return float(np.mean(a <= k)) if a.size else math.nan
+
     curves = [r.curve_error for r in rows]
     fin = [c for c in curves if math.isfinite(c)]
     graphs = [r.graph_error for r in rows if math.isfinite(r.graph_error)]
@@ -235,6 +261,12 @@ def summary(rows: list[DesignComparison]) -> dict[str, Any]:
             "graph": stats(graphs),
             "graphs_within_10pct": (float(np.mean(np.array(graphs) <= 0.10)) if graphs
                                     else math.nan),
+            # the model's ±1σ and ±2σ bands: the share of FE values inside them (a Gaussian
+            # error: 68 % and 95 %)
+            "pc_within_1sigma": within([r.pc_z for r in rows], 1.0),
+            "pc_within_2sigma": within([r.pc_z for r in rows], 2.0),
+            "ph_within_1sigma": within([r.ph_z for r in rows], 1.0),
+            "ph_within_2sigma": within([r.ph_z for r in rows], 2.0),
             "pc_missing": sum(one_sided(r.pc_fe, r.pc_model, r.top_fe, r.top_model)
                               for r in rows),
             "ph_missing": sum(one_sided(r.ph_fe, r.ph_model, r.top_fe, r.top_model)
