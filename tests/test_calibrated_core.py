@@ -166,6 +166,32 @@ def test_crossing_anchors_meet_at_their_precision_weighted_mean() -> None:
     assert 1.1 < want < 1.2 and want - 1.1 > 1.2 - want
 
 
+def test_a_path_weight_takes_the_log_mean_of_the_anchor_and_the_paths_reading() -> None:
+    """With a path weight (stretching cells: 0.5) Pc and Ph are the weighted means in log P
+    of the anchor and the path's own reading where both exist; the anchor alone where the
+    path reads none; the record says the weight. Weight 0 is the anchor (the default)."""
+    from multimorph.calibrated._anchor import PATH_WEIGHT, anchored_characteristic
+
+    assert PATH_WEIGHT == {"stretching": 0.5}
+    resp = _ballooning_response(1.0, 1.25)
+    own = resp.characteristic
+    ch, info = anchored_characteristic(resp, 1.1, 1.4, path_weight=0.5)
+    assert ch.critical == pytest.approx(math.sqrt(1.1 * own.critical))
+    assert ch.hardening == pytest.approx(math.sqrt(1.4 * own.hardening))
+    assert info["path_weight"] == 0.5 and info["critical_pressure"] == 1.1
+    w = 0.25
+    ch, _ = anchored_characteristic(resp, 1.1, 1.4, path_weight=w)
+    assert ch.critical == pytest.approx(1.1 ** (1 - w) * own.critical ** w)
+    ch0, info0 = anchored_characteristic(resp, 1.1, 1.4)
+    assert ch0.critical == 1.1 and ch0.hardening == 1.4 and "path_weight" not in info0
+    # no reading of the path's own (a curve cut before its knee): the anchor alone
+    from dataclasses import replace
+
+    cut = replace(resp, characteristic=replace(own, hardening=None))
+    ch, _ = anchored_characteristic(cut, 1.1, 1.4, path_weight=0.5)
+    assert ch.hardening == 1.4
+
+
 def test_an_anchor_beyond_the_path_or_far_from_its_reading_is_not_used() -> None:
     from multimorph.calibrated._anchor import MAX_FACTOR, anchored_characteristic
 

@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from multimorph.calibrated._anchor import anchored_characteristic
+from multimorph.calibrated._anchor import PATH_WEIGHT, anchored_characteristic
 from multimorph.calibrated._box import Box, cell_groups
 from multimorph.calibrated._fit import (
     ANCHORS,
@@ -412,7 +412,8 @@ class CalibratedModel:
                           for v in pred.anchors[r])
             sd = (None if pred.anchor_std is None
                   else (float(pred.anchor_std[r, 0]), float(pred.anchor_std[r, 1])))
-            char, anchors = anchored_characteristic(resp, pc_a, ph_a, sd)
+            char, anchors = anchored_characteristic(resp, pc_a, ph_a, sd,
+                                                    PATH_WEIGHT.get(pred.kind, 0.0))
             resp = replace(resp, characteristic=char)
         ch = resp.characteristic
         tt = path.extra["log_volume_ratio"]
