@@ -54,7 +54,10 @@ def _signal(resp: Response) -> tuple[np.ndarray, np.ndarray]:
 #: the anchor 1.3 / 4.1 %, the path 0.9 / 3.3 %, the geometric mean (0.5) 0.9 / 3.1 %
 #: (0.25: 1.0 / 3.2, 0.75: 0.9 / 2.9); Ph 1.1 / 4.4, 1.2 / 4.2, 1.1 / 3.6 %. Bending and
 #: tilted cells keep the anchor alone: their path readings jump between nearly equal slope
-#: maxima (module docstring; stop 41 measured no consistent gain from a blend there).
+#: maxima (module docstring), and the same check gains nothing at the p90 there (bending,
+#: 3 folds grouping each design's twins, 216 mirror cells: Pc 4.2 / 10.5 % → 3.4 / 10.3 %
+#: at 0.5, Ph 4.9 / 14.8 → 4.1 / 15.5 %; tilted, 5 folds, 236 cells: Pc 6.8 / 20.5 →
+#: 6.7 / 21.0 %, Ph 8.1 / 19.2 → 6.2 / 19.3 %).
 PATH_WEIGHT = {"stretching": 0.5}
 
 
