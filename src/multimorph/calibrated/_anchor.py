@@ -113,8 +113,7 @@ def anchored_characteristic(resp: Response, pc: float | None, ph: float | None,
             w = (1.0, 1.0)
             if std is not None and all(math.isfinite(v) and v > 0 for v in std):
                 w = (1.0 / std[0] ** 2, 1.0 / std[1] ** 2)
-            crit = hard = math.exp((w[0] * math.log(crit) + w[1] * math.log(hard))
-                                   / (w[0] + w[1]))
+            crit = hard = _blend(crit, hard, w[1] / (w[0] + w[1]))
             info["crossed"] = True
         elif hard < crit:
             hard = crit

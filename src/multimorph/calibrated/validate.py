@@ -54,9 +54,9 @@ CHECKS = (("bending", "bending"), ("bending", "bending_narrow"), ("bending", "be
 #: The issue's measure is per cell kind: each kind's held-out designs pooled over its sets
 #: (stop 42; the per-set rows above it). The bending kind answers as the cell inside a
 #: module (mirror ends); its plate-ended sets are pooled apart, and so are the two sets
-#: that never chose between fits (the held-out fifths did, since stop 33). `twisting3` is never
-#: trained on (all its designs are unseen), pooled with the held-out fifths in a row of
-#: its own.
+#: that never chose between fits (the held-out fifths did, since stop 33). `twisting3` is
+#: never trained on (all its designs are unseen), pooled with the held-out fifths in a row
+#: of its own.
 POOLS = (("bending", "mirror ends (the cell inside a module)",
           ("bending_mirror", "bending_narrow_mirror", "bending_single_mirror",
            "bending_single2_mirror")),
@@ -215,6 +215,14 @@ def _fmt(s: dict[str, Any], key: str) -> str:
             f"{100 * d['max']:.1f} %")
 
 
+def _pct(d: dict[str, Any], key: str) -> str:
+    return f"{100 * d[key]:.1f} %" if d.get("n") else "—"
+
+
+def _share(v: float) -> str:
+    return f"{100 * v:.0f} %" if math.isfinite(v) else "—"
+
+
 def plot(results: list[dict[str, Any]], out: Path) -> list[str]:
     """Parity plots and worst-five curves (PNG) per kind; returns the file names."""
     import matplotlib
@@ -325,18 +333,12 @@ def main(argv: list[str] | None = None) -> int:
                 continue
             s = _table(rows)
             metrics[f"pooled/{kind}/{label}/{model}"] = {**s, "sets": list(names)}
-
-            def pct(d: dict[str, Any], key: str) -> str:
-                return f"{100 * d[key]:.1f} %" if d.get("n") else "—"
-
-            def share(v: float) -> str:
-                return f"{100 * v:.0f} %" if math.isfinite(v) else "—"
-
-            print(f"| {kind} | {label} | {model} | {s['designs']} | {pct(s['pc'], 'median')} | "
-                  f"{pct(s['pc'], 'p90')} | {pct(s['ph'], 'median')} | {pct(s['ph'], 'p90')} | "
-                  f"{share(s['curves_within_10pct'])} | {share(s['graphs_within_10pct'])} | "
-                  f"{share(s['pc_within_1sigma'])} / {share(s['pc_within_2sigma'])} | "
-                  f"{share(s['ph_within_1sigma'])} / {share(s['ph_within_2sigma'])} |")
+            print(f"| {kind} | {label} | {model} | {s['designs']} | "
+                  f"{_pct(s['pc'], 'median')} | {_pct(s['pc'], 'p90')} | "
+                  f"{_pct(s['ph'], 'median')} | {_pct(s['ph'], 'p90')} | "
+                  f"{_share(s['curves_within_10pct'])} | {_share(s['graphs_within_10pct'])} | "
+                  f"{_share(s['pc_within_1sigma'])} / {_share(s['pc_within_2sigma'])} | "
+                  f"{_share(s['ph_within_1sigma'])} / {_share(s['ph_within_2sigma'])} |")
     metrics["figures"] = files
     if args.json:
         Path(args.json).write_text(json.dumps(metrics, indent=1, default=str) + "\n")
