@@ -167,18 +167,26 @@ def test_crossing_anchors_meet_at_their_precision_weighted_mean() -> None:
 
 
 def test_a_path_weight_takes_the_log_mean_of_the_anchor_and_the_paths_reading() -> None:
-    """With a path weight (stretching cells: 0.5) Pc and Ph are the weighted means in log P
-    of the anchor and the path's own reading where both exist; the anchor alone where the
-    path reads none; the record says the weight. Weight 0 is the anchor (the default)."""
+    """With a path weight (stretching cells: 0.5 on both; bending cells 0.5 on Pc, 0.25 on
+    Ph) Pc and Ph are the weighted means in log P of the anchor and the path's own reading
+    where both exist; the anchor alone where the path reads none; the record says the
+    weights. Weight 0 is the anchor (the default)."""
     from multimorph.calibrated._anchor import PATH_WEIGHT, anchored_characteristic
 
-    assert PATH_WEIGHT == {"stretching": 0.5}
+    assert PATH_WEIGHT == {"stretching": (0.5, 0.5), "bending": (0.5, 0.25)}
+    assert "twisting" not in PATH_WEIGHT
     resp = _ballooning_response(1.0, 1.25)
     own = resp.characteristic
     ch, info = anchored_characteristic(resp, 1.1, 1.4, path_weight=0.5)
     assert ch.critical == pytest.approx(math.sqrt(1.1 * own.critical))
     assert ch.hardening == pytest.approx(math.sqrt(1.4 * own.hardening))
     assert info["path_weight"] == 0.5 and info["critical_pressure"] == 1.1
+    assert info["path_weight_hardening"] == 0.5
+    # separate weights of Pc and Ph
+    ch, info = anchored_characteristic(resp, 1.1, 1.4, path_weight=(0.5, 0.25))
+    assert ch.critical == pytest.approx(math.sqrt(1.1 * own.critical))
+    assert ch.hardening == pytest.approx(1.4 ** 0.75 * own.hardening ** 0.25)
+    assert (info["path_weight"], info["path_weight_hardening"]) == (0.5, 0.25)
     w = 0.25
     ch, _ = anchored_characteristic(resp, 1.1, 1.4, path_weight=w)
     assert ch.critical == pytest.approx(1.1 ** (1 - w) * own.critical ** w)

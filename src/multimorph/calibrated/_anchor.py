@@ -46,19 +46,29 @@ def _signal(resp: Response) -> tuple[np.ndarray, np.ndarray]:
     return P[keep], k[keep]
 
 
-#: The weight of the path's own reading (in log P) where it and the anchor both give a
-#: value, per kind (the rest on the anchor; 0: the anchor alone). Stretching cells (stop
-#: 42): their signal, the axial stretch, rises smoothly, and their path reads Pc better
-#: than their anchor does. 5-fold cross-validation on the 321 training stretching designs
-#: (`calibrated-fast`, each fold's GPs fitted without it; median / p90 of |ΔP|/P): Pc from
-#: the anchor 1.3 / 4.1 %, the path 0.9 / 3.3 %, the geometric mean (0.5) 0.9 / 3.1 %
-#: (0.25: 1.0 / 3.2, 0.75: 0.9 / 2.9); Ph 1.1 / 4.4, 1.2 / 4.2, 1.1 / 3.6 %. Bending and
-#: tilted cells keep the anchor alone: their path readings jump between nearly equal slope
-#: maxima (module docstring), and the same check gains nothing at the p90 there (bending,
-#: 3 folds grouping each design's twins, 216 mirror cells: Pc 4.2 / 10.5 % → 3.4 / 10.3 %
-#: at 0.5, Ph 4.9 / 14.8 → 4.1 / 15.5 %; tilted, 5 folds, 236 cells: Pc 6.8 / 20.5 →
-#: 6.7 / 21.0 %, Ph 8.1 / 19.2 → 6.2 / 19.3 %).
-PATH_WEIGHT = {"stretching": 0.5}
+#: The weights of the path's own reading of Pc and of Ph (in log P) where it and the anchor
+#: both give a value, per kind (the rest on the anchor; 0: the anchor alone).
+#:
+#: Stretching cells (stop 42): their signal, the axial stretch, rises smoothly, and their
+#: path reads Pc better than their anchor does. 5-fold cross-validation on the 321 training
+#: stretching designs (`calibrated-fast`, each fold's GPs fitted without it; median / p90 of
+#: |ΔP|/P): Pc from the anchor 1.3 / 4.1 %, the path 0.9 / 3.3 %, the geometric mean (0.5)
+#: 0.9 / 3.1 % (0.25: 1.0 / 3.2, 0.75: 0.9 / 2.9); Ph 1.1 / 4.4, 1.2 / 4.2, 1.1 / 3.6 %.
+#:
+#: Bending cells (stop 43): the weights the same cross-validation picks (3 folds grouping
+#: each design's twins, 216 mirror cells with both readings of Pc, 144 of Ph): Pc 4.2 /
+#: 10.5 % from the anchor, 3.4 / 10.3 % at 0.5 (0.25: 3.8 / 10.7, 0.75: 3.6 / 11.1); Ph
+#: 4.9 / 14.8 %, 4.6 / 13.3 % at 0.25 (0.5: 4.1 / 15.5). Where both readings exist on the
+#: held-out designs (never fitted on): the mirror sets' fifths (119 Pc, 84 Ph) Pc 3.4 /
+#: 10.9 → 2.7 / 9.9 %, Ph 3.8 / 9.8 → 3.3 / 7.7 %; the two bending sets that never chose a
+#: fit (114, 97) Pc 3.7 / 13.5 → 3.1 / 11.4 %, Ph 3.2 / 12.0 → 2.7 / 10.2 %. The path's
+#: reading can jump between nearly equal slope maxima (module docstring): the anchor keeps
+#: the larger weight on Ph, where the knee is the flatter.
+#:
+#: Tilted cells keep the anchor alone: the cross-validation gains nothing there (5 folds,
+#: 236 cells: Pc 6.8 / 20.5 → 6.7 / 21.0 % at 0.5, Ph 8.1 / 19.2 → 6.2 / 19.3 %).
+PATH_WEIGHT: dict[str, tuple[float, float]] = {"stretching": (0.5, 0.5),
+                                               "bending": (0.5, 0.25)}
 
 
 def _blend(anchor: float, own: float | None, w: float) -> float:
@@ -77,13 +87,15 @@ def _usable(anchor: float | None, own: float | None, top: float) -> bool:
 
 def anchored_characteristic(resp: Response, pc: float | None, ph: float | None,
                             std: tuple[float, float] | None = None,
-                            path_weight: float = 0.0,
+                            path_weight: float | tuple[float, float] = 0.0,
                             ) -> tuple[CharacteristicPressures, dict[str, Any]]:
     """The response's characteristic pressures with Pc and Ph replaced by the anchors
     ``pc``, ``ph`` (Pa; ``None``: no anchor) where the loading curve reaches them, and a
     record of what was done (JSON-able: the path's own readings and the anchors).
-    ``path_weight`` (:data:`PATH_WEIGHT` of the cell's kind): where the path has a reading
-    of its own too, the value used is the weighted mean of the two in log P (0: the anchor).
+    ``path_weight`` (:data:`PATH_WEIGHT` of the cell's kind; one weight for both, or those
+    of Pc and Ph): where the path has a reading of its own too, the value used is the
+    weighted mean of the two in log P (0: the anchor). The record says ``path_weight`` (Pc's)
+    and ``path_weight_hardening`` where either is used.
 
     Anchors that cross (``ph < pc``: a narrow knee, both within their scatter) are
     projected onto Pc ≤ Ph: both take the precision-weighted mean of their logs (weights
@@ -92,22 +104,24 @@ def anchored_characteristic(resp: Response, pc: float | None, ph: float | None,
     ch = resp.characteristic
     P, k = _signal(resp)
     top = float(P[-1]) if P.size else 0.0
+    w_pc, w_ph = ((float(path_weight), float(path_weight))
+                  if isinstance(path_weight, int | float) else path_weight)
     info: dict[str, Any] = {"path_critical_pressure": ch.critical,
                             "path_hardening_pressure": ch.hardening,
                             "critical_pressure": pc, "hardening_pressure": ph,
-                            "used": [], **({"path_weight": path_weight}
-                                           if path_weight > 0 else {})}
+                            "used": [], **({"path_weight": w_pc, "path_weight_hardening": w_ph}
+                                           if w_pc > 0 or w_ph > 0 else {})}
     crit, hard = ch.critical, ch.hardening
     # a path whose own reading finds no activation below its end, but that reaches the
     # anchor, is taken at the anchor too: the reading failed, not the activation
     use_pc = _usable(pc, ch.critical, top)
     if use_pc:
         assert pc is not None
-        crit = _blend(pc, ch.critical, path_weight)
+        crit = _blend(pc, ch.critical, w_pc)
         info["used"].append("critical")
     if crit is not None and _usable(ph, ch.hardening, top):
         assert ph is not None
-        hard = _blend(ph, ch.hardening, path_weight)
+        hard = _blend(ph, ch.hardening, w_ph)
         if hard < crit and use_pc:
             # the two anchors cross: both at their precision-weighted log mean
             w = (1.0, 1.0)
