@@ -50,7 +50,7 @@ def _fine_path(out: Path, ref, row: int) -> dict[str, np.ndarray] | None:
         return None
     path = {k: np.asarray(rec[k]) for k in ("pressure", "curvature", "peak_stretch",
                                               "axial_stretch", "volume", "bend_angle",
-                                              "stable") if k in rec}
+                                              "shear", "twist_rate", "stable") if k in rec}
     path["wall_time"] = np.array(time.perf_counter() - t0)
     out.mkdir(parents=True, exist_ok=True)
     tmp = f.with_suffix(".tmp.npz")
