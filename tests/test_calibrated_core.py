@@ -187,6 +187,11 @@ def test_a_path_weight_takes_the_log_mean_of_the_anchor_and_the_paths_reading() 
     assert ch.critical == pytest.approx(math.sqrt(1.1 * own.critical))
     assert ch.hardening == pytest.approx(1.4 ** 0.75 * own.hardening ** 0.25)
     assert (info["path_weight"], info["path_weight_hardening"]) == (0.5, 0.25)
+    # the path's reading moves the anchor by at most the anchor's own σ of log P
+    sd = 0.5 * abs(math.log(own.critical / 1.1)) / 3.0  # a third of the plain shift
+    ch, _ = anchored_characteristic(resp, 1.1, 1.4, (sd, 1.0), path_weight=0.5)
+    assert ch.critical == pytest.approx(1.1 * math.exp(math.copysign(sd, own.critical - 1.1)))
+    assert ch.hardening == pytest.approx(math.sqrt(1.4 * own.hardening))  # σ 1: not binding
     w = 0.25
     ch, _ = anchored_characteristic(resp, 1.1, 1.4, path_weight=w)
     assert ch.critical == pytest.approx(1.1 ** (1 - w) * own.critical ** w)

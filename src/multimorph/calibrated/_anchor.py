@@ -65,18 +65,38 @@ def _signal(resp: Response) -> tuple[np.ndarray, np.ndarray]:
 #: reading can jump between nearly equal slope maxima (module docstring): the anchor keeps
 #: the larger weight on Ph, where the knee is the flatter.
 #:
+#: The path's reading moves the anchor by at most the anchor's own predictive std of log P
+#: (about 0.05; the reported value stays inside the anchor's ±1σ band). Why: the reading
+#: is discontinuous in the design where the path has two nearly equal slope maxima, and the
+#: plain blend carried half of each flip into the reported pressure — over ±10 % sweeps of
+#: the top or side wall of 30 `bending2_mirror` cells (41 points each) it added steps of
+#: over 1 % between neighbouring designs in 5 of 60 sweeps for Pc (up to 18 %) and 7 for Ph
+#: (up to 9 %), where the anchor alone is smooth. Capped, a step it adds is at most 2σ, and
+#: the accuracy stays (cross-validation Pc 3.4 / 10.3 %, Ph 4.6 / 13.1 %; held out where
+#: both readings exist: Pc 2.7 / 9.9 %, Ph 3.3 / 7.7 %; never chose a fit: Pc 3.0 /
+#: 12.1 %, Ph 2.8 / 10.2 %). The same cap holds for stretching cells.
+#:
 #: Tilted cells keep the anchor alone: the cross-validation gains nothing there (5 folds,
 #: 236 cells: Pc 6.8 / 20.5 → 6.7 / 21.0 % at 0.5, Ph 8.1 / 19.2 → 6.2 / 19.3 %).
 PATH_WEIGHT: dict[str, tuple[float, float]] = {"stretching": (0.5, 0.5),
                                                "bending": (0.5, 0.25)}
 
 
-def _blend(anchor: float, own: float | None, w: float) -> float:
+def _blend(anchor: float, own: float | None, w: float, cap: float = math.inf) -> float:
     """The anchor, or with ``w`` > 0 and a reading of the path's own, their weighted mean in
-    log P."""
+    log P, moved from the anchor by at most ``cap`` in log P."""
     if own is None or not w > 0 or not own > 0:
         return anchor
-    return math.exp((1.0 - w) * math.log(anchor) + w * math.log(own))
+    shift = w * math.log(own / anchor)
+    return anchor * math.exp(max(-cap, min(cap, shift)))
+
+
+def _sigma(std: tuple[float, float] | None, j: int) -> float:
+    """The anchor's predictive std of log P (inf where not known): how far the path's
+    reading may move it."""
+    if std is None or not (math.isfinite(std[j]) and std[j] > 0):
+        return math.inf
+    return float(std[j])
 
 
 def _usable(anchor: float | None, own: float | None, top: float) -> bool:
@@ -94,8 +114,10 @@ def anchored_characteristic(resp: Response, pc: float | None, ph: float | None,
     record of what was done (JSON-able: the path's own readings and the anchors).
     ``path_weight`` (:data:`PATH_WEIGHT` of the cell's kind; one weight for both, or those
     of Pc and Ph): where the path has a reading of its own too, the value used is the
-    weighted mean of the two in log P (0: the anchor). The record says ``path_weight`` (Pc's)
-    and ``path_weight_hardening`` where either is used.
+    weighted mean of the two in log P (0: the anchor), moved from the anchor by at most the
+    anchor's own predictive std (``std``; :data:`PATH_WEIGHT`'s comment): the reported value
+    stays inside the anchor's ±1σ band. The record says ``path_weight`` (Pc's) and
+    ``path_weight_hardening`` where either is used.
 
     Anchors that cross (``ph < pc``: a narrow knee, both within their scatter) are
     projected onto Pc ≤ Ph: both take the precision-weighted mean of their logs (weights
@@ -117,11 +139,11 @@ def anchored_characteristic(resp: Response, pc: float | None, ph: float | None,
     use_pc = _usable(pc, ch.critical, top)
     if use_pc:
         assert pc is not None
-        crit = _blend(pc, ch.critical, w_pc)
+        crit = _blend(pc, ch.critical, w_pc, _sigma(std, 0))
         info["used"].append("critical")
     if crit is not None and _usable(ph, ch.hardening, top):
         assert ph is not None
-        hard = _blend(ph, ch.hardening, w_ph)
+        hard = _blend(ph, ch.hardening, w_ph, _sigma(std, 1))
         if hard < crit and use_pc:
             # the two anchors cross: both at their precision-weighted log mean
             w = (1.0, 1.0)
