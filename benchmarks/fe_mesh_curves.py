@@ -12,6 +12,9 @@ on the fine mesh (4 elements through every wall, edges d/24, everything else as 
 spec) and prints, per design, the fine mesh's Pc and Ph against the set's, and both curve
 measures of the set's FE against the fine FE (the fine FE standing where the model stands
 in the validation): the vertical one and the graph distance (``_validate.graph_error``).
+Any set of the data set: bending (the signal κd), stretching (the axial stretch) or tilted
+cells (``--set twisting``: the strip shear; their set's edges are d/16). Measured:
+``bending_mirror`` 16 designs, ``twisting`` 8 (docs/validation.md §3.1).
 
 Each fine run is kept in ``benchmarks/runs/fe_mesh_curves/<set>/<design>.npz``: an
 interrupted run resumes where it stopped (the finished designs are read back, not rerun).
