@@ -150,3 +150,39 @@ def test_the_band_score_is_the_error_in_units_of_the_models_sigma() -> None:
     assert s["pc_within_1sigma"] == pytest.approx(0.5)
     assert s["pc_within_2sigma"] == pytest.approx(1.0)
     assert np.isnan(s["ph_within_1sigma"])
+
+
+def test_a_band_over_an_unused_anchor_covers_both_readings_and_is_scored_on_fes_side(
+        ) -> None:
+    """Where the path's reading and the anchor disagree by more than MAX_FACTOR (the
+    anchor unused), the ±1σ band reaches over the anchor's own ±1σ; within the factor
+    (an anchor unused because the path ends before it) the band is the path's own. The
+    band score takes σ on FE's side of an asymmetric band: FE 5 times the model's value,
+    inside the band's upper reach, is within 1σ; FE 10 % below, on the narrow side, is
+    10 %/σ off."""
+    import math
+
+    from multimorph.calibrated._anchor import MAX_FACTOR
+    from multimorph.calibrated._model import unused_anchor_band
+    from multimorph.calibrated._validate import band_z
+
+    own, s, anchor, sa = 6.0e3, 0.05, 39.0e3, 0.06
+    lo, hi = unused_anchor_band(own, s, anchor, sa)
+    assert lo == pytest.approx(own * math.exp(-s))
+    assert hi == pytest.approx(anchor * math.exp(sa))
+    near = 0.99 * MAX_FACTOR * own       # unused only because the path ended first
+    assert unused_anchor_band(own, s, near, sa) == pytest.approx(
+        [own * math.exp(-s), own * math.exp(s)])
+    assert unused_anchor_band(own, s, None, sa) == pytest.approx(
+        [own * math.exp(-s), own * math.exp(s)])
+    # the anchor's own σ unknown: the path's σ stands for it
+    assert unused_anchor_band(own, s, anchor, None)[1] == pytest.approx(anchor * math.exp(s))
+
+    model = _snap(0.0)
+    pc_m = model.characteristic.critical
+    wide = model.with_meta(calibration={"critical_pressure_range": unused_anchor_band(
+        pc_m, s, 6.5 * pc_m, sa), "hardening_pressure_range": [None, None]})
+    up = band_z(wide, 5.0 * pc_m, "critical")
+    assert up == pytest.approx(math.log(5.0) / math.log(6.5 * math.exp(sa)), rel=1e-9)
+    assert up < 1.0
+    assert band_z(wide, 0.9 * pc_m, "critical") == pytest.approx(-math.log(0.9) / s, rel=1e-9)

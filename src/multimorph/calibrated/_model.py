@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from multimorph.calibrated._anchor import PATH_WEIGHT, anchored_characteristic
+from multimorph.calibrated._anchor import MAX_FACTOR, PATH_WEIGHT, anchored_characteristic
 from multimorph.calibrated._box import Box, cell_groups
 from multimorph.calibrated._fit import (
     ANCHORS,
@@ -420,17 +420,21 @@ class CalibratedModel:
         std = pred.std_log_p[r]
 
         # the band: the anchor's predictive std, or (the path's own reading) the std of
-        # log P at the activation volume, which moves the whole κ(P) curve's pressures
+        # log P at the activation volume, which moves the whole κ(P) curve's pressures;
+        # an anchor left unused because it disagrees with the path's reading by more
+        # than MAX_FACTOR widens it to cover its own ±1σ
         def band(pc: float | None, j: int) -> list[float | None]:
             if pc is None:
                 return [None, None]
+            which = ("critical", "hardening")[j]
             used = anchors["used"] if anchors else []
-            if ("critical", "hardening")[j] in used and pred.anchor_std is not None:
-                s = float(pred.anchor_std[r, j])   # the anchor's own predictive std
-            else:
-                tc = float(np.interp(pc, np.maximum.accumulate(path.pressure), tt))
-                s = float(np.interp(tc, T_GRID, std))
-            return [pc * math.exp(-s), pc * math.exp(s)]
+            a_std = None if pred.anchor_std is None else float(pred.anchor_std[r, j])
+            if which in used and a_std is not None:
+                return [pc * math.exp(-a_std), pc * math.exp(a_std)]
+            tc = float(np.interp(pc, np.maximum.accumulate(path.pressure), tt))
+            s = float(np.interp(tc, T_GRID, std))
+            anchor = anchors.get(f"{which}_pressure") if anchors else None
+            return unused_anchor_band(pc, s, anchor, a_std)
 
         meta = {"model": "calibrated-fast" if fast else "calibrated", "points": len(path),
                 "calibration": {
@@ -602,6 +606,25 @@ def _truncate(path: EquilibriumPath, p_max: float) -> tuple[EquilibriumPath, boo
             a[-1] = a[-2] + f * (a[-1] - a[-2])
         extra[k] = a
     return replace(keep, **arrays, extra=extra), True
+
+
+def unused_anchor_band(value: float, std: float, anchor: float | None,
+                       anchor_std: float | None) -> list[float | None]:
+    """The ±1σ band of a Pc or Ph read on the model's own path (``value``, ``std`` of its
+    log): where the kind's anchor for it was left unused because it disagrees with the
+    path's reading by more than :data:`~._anchor.MAX_FACTOR`, the band reaches over the
+    anchor's own ±1σ too. The model's two readings then say different things about the
+    cell, and its band says so: on the held-out bending cells a one-elastomer cell that
+    barely bends read Pc 5.9 kPa on its path, ±0.3 kPa, where its anchor said 38.8 and FE
+    35.3 (``bending_single_mirror`` #15). An anchor left unused because the path ends
+    before it (a runaway at a limit point just below it: the path's reading is then
+    within 1–3 % of FE on most held-out cells) does not widen the band."""
+    lo, hi = value * math.exp(-std), value * math.exp(std)
+    if (anchor is not None and math.isfinite(anchor) and anchor > 0 and value > 0
+            and abs(math.log(anchor / value)) > math.log(MAX_FACTOR)):
+        s = anchor_std if anchor_std is not None and math.isfinite(anchor_std) else std
+        lo, hi = min(lo, anchor * math.exp(-s)), max(hi, anchor * math.exp(s))
+    return [lo, hi]
 
 
 def straight_of(arrays: dict[str, np.ndarray], manifest: dict[str, Any], data: Any,

@@ -211,7 +211,9 @@ def compare(model: Response, fe: Response, kind: str, set_name: str = "",
 
 def band_z(model: Response, fe_value: float | None, which: str) -> float:
     """|log(model / FE)| of the model's ``which`` pressure ("critical", "hardening") over
-    the σ of log P its ±1σ band gives (NaN without both values and a band)."""
+    the σ of log P its ±1σ band gives on FE's side of it (a band that reaches over an
+    unused anchor is wider on one side: ``_model.unused_anchor_band``; NaN without both
+    values and a band)."""
     own = getattr(model.characteristic, which)
     band = ((model.meta.get("calibration") or {}).get(f"{which}_pressure_range")
             or (None, None))
@@ -219,7 +221,13 @@ def band_z(model: Response, fe_value: float | None, which: str) -> float:
     if (own is None or fe_value is None or lo is None or hi is None
             or not (0 < lo < hi and own > 0 and fe_value > 0)):
         return math.nan
-    return abs(math.log(own / fe_value)) / (0.5 * math.log(hi / lo))
+    if lo <= own <= hi:
+        side = math.log(hi / own) if fe_value > own else math.log(own / lo)
+    else:
+        side = 0.5 * math.log(hi / lo)
+    if not side > 0:
+        side = 0.5 * math.log(hi / lo)
+    return abs(math.log(own / fe_value)) / side
 
 
 def _top(r: Response) -> float:
