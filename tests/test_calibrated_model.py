@@ -255,3 +255,42 @@ def test_the_bending_signal_gp_brings_the_curve_after_the_snap_closer_to_fe() ->
                 e.append(np.max(np.abs(y_m - y_fe)[cov]) / np.max(np.abs(y_fe[data.mask[r]])))
             errs.append(float(np.median(e)))
         assert errs[0] < errs[1], (fast, errs)
+
+
+def test_where_the_anchor_and_the_path_disagree_the_band_and_the_cell_line_say_so() -> None:
+    """A held-out one-elastomer cell that barely bends (``bending_single_mirror`` #15):
+    the model's path reads its Pc at 5.9 kPa, its anchor at 38.8 kPa, FE at 35.3 (a limit
+    point). The anchor is left out (more than MAX_FACTOR from the path's reading), so the
+    reported Pc is the path's; its ±1σ band must then reach over the anchor's own ±1σ
+    (FE inside it), and the readable cell line must name both readings."""
+    import math
+
+    from multimorph.calibrated._anchor import MAX_FACTOR
+    from multimorph.calibrated._dataset import load_reference
+    from multimorph.calibrated._validate import band_z, fe_response
+    from multimorph.calibrated.validate import requested_pressure
+    from multimorph.cli._cell import model_line
+
+    ref = load_reference()["bending_single_mirror"]
+    row = int(np.flatnonzero(ref.design == 15)[0])
+    cell, path = ref.cell(row), ref.path(row)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", CalibrationWarning)
+        resp = load_model().responses([cell], requested_pressure(
+            "bending_single_mirror", 15, path), fast=True)[0]
+    cal = resp.meta["calibration"]
+    a = cal["anchors"]
+    own, anchor = a["path_critical_pressure"], a["critical_pressure"]
+    assert "critical" not in a["used"]
+    assert abs(math.log(anchor / own)) > math.log(MAX_FACTOR)
+    assert resp.characteristic.critical == pytest.approx(own)
+    lo, hi = cal["critical_pressure_range"]
+    assert lo < own < anchor < hi
+    fe = fe_response(path, cell, "bending").characteristic.critical
+    assert lo < fe < hi and band_z(resp, fe, "critical") < 1.0
+    line = model_line({"model": "calibrated-fast", "calibration": cal})
+    assert f"{own / 1e3:.3g} kPa" in line and f"{anchor / 1e3:.3g} kPa" in line
+    assert "disagree" in line
+    agree = {**a, "used": ["critical", "hardening"]}
+    assert "disagree" not in model_line({"model": "calibrated-fast",
+                                        "calibration": {**cal, "anchors": agree}})

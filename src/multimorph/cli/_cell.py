@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -60,6 +61,21 @@ def cell_summary(response: Any) -> dict[str, Any]:
     }
 
 
+def _disagreement(anchors: dict[str, Any]) -> str:
+    """A note where the calibrated model left its Pc anchor out because it disagrees with
+    the path's own reading by more than ``_anchor.MAX_FACTOR`` (its band then spans both:
+    ``_model.unused_anchor_band``): on such cells the model's Pc can be off severalfold
+    either way (docs/validation.md §4, stop 44)."""
+    from multimorph.calibrated._anchor import MAX_FACTOR
+
+    own, anchor = anchors.get("path_critical_pressure"), anchors.get("critical_pressure")
+    if (not own or not anchor or "critical" in anchors.get("used", [])
+            or abs(math.log(anchor / own)) <= math.log(MAX_FACTOR)):
+        return ""
+    return (f"; its path reads Pc {own / 1e3:.3g} kPa, its anchor {anchor / 1e3:.3g} kPa: "
+            "the two disagree, so Pc is uncertain here")
+
+
 def model_line(data: dict[str, Any]) -> str:
     """Which model produced a cell result, and how far that model is from 3D FE."""
     name = data.get("model", data.get("backend"))
@@ -68,6 +84,7 @@ def model_line(data: dict[str, Any]) -> str:
         lo, hi = cal.get("critical_pressure_range") or (None, None)
         band = (f"; Pc within {lo / 1e3:.3g} … {hi / 1e3:.3g} kPa (±1σ)"
                 if lo is not None and hi is not None else "")
+        band += _disagreement(cal.get("anchors") or {})
         how = ("Ritz corrected against 3D FE" if name == "calibrated" else
                "Ritz corrected against 3D FE, on emulated Ritz features")
         return f"{name} ({how}; held-out error in docs/validation.md){band}"
