@@ -262,7 +262,8 @@ def test_where_the_anchor_and_the_path_disagree_the_band_and_the_cell_line_say_s
     the model's path reads its Pc at 5.9 kPa, its anchor at 38.8 kPa, FE at 35.3 (a limit
     point). The anchor is left out (more than MAX_FACTOR from the path's reading), so the
     reported Pc is the path's; its ±1σ band must then reach over the anchor's own ±1σ
-    (FE inside it), and the readable cell line must name both readings."""
+    (FE inside it), and the readable cell line (and a device's, for its module) must say
+    so."""
     import math
 
     from multimorph.calibrated._anchor import MAX_FACTOR
@@ -294,3 +295,9 @@ def test_where_the_anchor_and_the_path_disagree_the_band_and_the_cell_line_say_s
     agree = {**a, "used": ["critical", "hardening"]}
     assert "disagree" not in model_line({"model": "calibrated-fast",
                                         "calibration": {**cal, "anchors": agree}})
+    # a device with such a cell says which module (multimorph simulate's model words)
+    from multimorph.cli._simulate import model_words
+
+    words = model_words({"model": "calibrated-fast", "modules": {
+        "fingers": {"calibration": cal}, "twister": {"calibration": {"anchors": agree}}}})
+    assert "Pc uncertain for fingers " in words and "twister" not in words

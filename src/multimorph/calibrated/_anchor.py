@@ -30,7 +30,7 @@ import numpy as np
 
 from multimorph.response import CharacteristicPressures, Response
 
-__all__ = ["MAX_FACTOR", "PATH_WEIGHT", "anchored_characteristic"]
+__all__ = ["MAX_FACTOR", "PATH_WEIGHT", "anchored_characteristic", "readings_disagree"]
 
 #: An anchor further than this factor from the path's own reading is not used (the anchor
 #: and the path disagree about what the cell does; the path's reading is kept and the
@@ -97,6 +97,20 @@ def _sigma(std: tuple[float, float] | None, j: int) -> float:
     if std is None or not (math.isfinite(std[j]) and std[j] > 0):
         return math.inf
     return float(std[j])
+
+
+def readings_disagree(info: dict[str, Any] | None) -> bool:
+    """Whether a response's record of its anchors (``calibration.anchors``) says the Pc
+    anchor was left out because it is more than :data:`MAX_FACTOR` from the path's own
+    reading: the model's two readings of Pc say different things about the cell (its
+    band then spans both, ``_model.unused_anchor_band``; in FE either can be right, or
+    neither: docs/validation.md §4, stop 44)."""
+    if not info:
+        return False
+    own, anchor = info.get("path_critical_pressure"), info.get("critical_pressure")
+    if not own or not anchor or own <= 0 or anchor <= 0 or "critical" in info.get("used", []):
+        return False
+    return abs(math.log(anchor / own)) > math.log(MAX_FACTOR)
 
 
 def _usable(anchor: float | None, own: float | None, top: float) -> bool:

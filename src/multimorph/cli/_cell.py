@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -66,12 +65,11 @@ def _disagreement(anchors: dict[str, Any]) -> str:
     the path's own reading by more than ``_anchor.MAX_FACTOR`` (its band then spans both:
     ``_model.unused_anchor_band``): on such cells the model's Pc can be off severalfold
     either way (docs/validation.md §4, stop 44)."""
-    from multimorph.calibrated._anchor import MAX_FACTOR
+    from multimorph.calibrated._anchor import readings_disagree
 
-    own, anchor = anchors.get("path_critical_pressure"), anchors.get("critical_pressure")
-    if (not own or not anchor or "critical" in anchors.get("used", [])
-            or abs(math.log(anchor / own)) <= math.log(MAX_FACTOR)):
+    if not readings_disagree(anchors):
         return ""
+    own, anchor = anchors["path_critical_pressure"], anchors["critical_pressure"]
     return (f"; its path reads Pc {own / 1e3:.3g} kPa, its anchor {anchor / 1e3:.3g} kPa: "
             "the two disagree, so Pc is uncertain here")
 

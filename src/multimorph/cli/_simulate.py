@@ -116,6 +116,13 @@ def model_words(summary: dict[str, Any]) -> str:
     text = "; ".join(words.get(m, m) for m in models)
     if fell_back:
         text += f" — Ritz fallback outside the calibrated box for {', '.join(fell_back)}"
+    from multimorph.calibrated._anchor import readings_disagree
+
+    unsure = [n for n, m in summary["modules"].items()
+              if readings_disagree((m.get("calibration") or {}).get("anchors"))]
+    if unsure:
+        text += (f" — Pc uncertain for {', '.join(unsure)} (the cell's path and its anchor "
+                 "read Pc more than 2× apart; see calibration.anchors)")
     return text
 
 
