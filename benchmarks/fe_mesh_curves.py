@@ -34,32 +34,41 @@ ROOT = Path(__file__).resolve().parents[1]
 FINE = {"wall_elements": 4, "length_fraction": 1.0 / 24.0}
 
 
-def _fine_path(out: Path, ref, row: int) -> dict[str, np.ndarray] | None:
-    """The fine mesh's path of ``row`` (run now, or read back from ``out``)."""
+#: The path arrays a stored FE run keeps.
+PATH_KEYS = ("pressure", "curvature", "peak_stretch", "axial_stretch", "volume", "bend_angle",
+             "shear", "twist_rate", "stable")
+
+
+def stored_fe_path(f: Path, set_name: str, cell, options: dict | None = None,
+                   ) -> dict[str, np.ndarray] | None:
+    """FE path of ``cell`` with set ``set_name``'s spec (its options updated by
+    ``options``), read back from ``f`` (.npz) if it is there, else run and stored there
+    (written whole or not at all, so an interrupted run resumes). None: the FE failed."""
     from multimorph.calibrated._dataset import reference_spec
     from multimorph.sweep._backends import FeBackend
 
-    f = out / f"{int(ref.design[row])}.npz"
     if f.exists():
         with np.load(f) as z:
             return {k: z[k] for k in z.files}
-    spec = reference_spec(ref.name)
-    options = {**dict(spec.options), **FINE}
+    spec = reference_spec(set_name)
     t0 = time.perf_counter()
-    rec = FeBackend().evaluate_batch([ref.cell(row)], spec.pmax, ("characteristic", "curves"),
-                                     options)[0]
+    rec = FeBackend().evaluate_batch([cell], spec.pmax, ("characteristic", "curves"),
+                                     {**dict(spec.options), **(options or {})})[0]
     if isinstance(rec, Exception):
-        print(f"  design {int(ref.design[row])}: fine FE failed: {rec}", flush=True)
+        print(f"  {f.stem}: FE failed: {rec}", flush=True)
         return None
-    path = {k: np.asarray(rec[k]) for k in ("pressure", "curvature", "peak_stretch",
-                                              "axial_stretch", "volume", "bend_angle",
-                                              "shear", "twist_rate", "stable") if k in rec}
+    path = {k: np.asarray(rec[k]) for k in PATH_KEYS if k in rec}
     path["wall_time"] = np.array(time.perf_counter() - t0)
-    out.mkdir(parents=True, exist_ok=True)
+    f.parent.mkdir(parents=True, exist_ok=True)
     tmp = f.with_suffix(".tmp.npz")
     np.savez(tmp, **path)
     tmp.replace(f)
     return path
+
+
+def _fine_path(out: Path, ref, row: int) -> dict[str, np.ndarray] | None:
+    """The fine mesh's path of ``row`` (run now, or read back from ``out``)."""
+    return stored_fe_path(out / f"{int(ref.design[row])}.npz", ref.name, ref.cell(row), FINE)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -28,7 +28,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import time
 import warnings
 from dataclasses import replace
 from pathlib import Path
@@ -36,9 +35,6 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-KEYS = ("pressure", "curvature", "peak_stretch", "axial_stretch", "volume", "bend_angle",
-        "shear", "twist_rate", "stable")
-
 
 #: The design directions ``--direction`` perturbs: the top wall's thickness, or the wall
 #: elastomer's Gent Jm (its strain hardening; μ kept).
@@ -64,27 +60,9 @@ def perturbed(cell, factor: float, direction: str = "top_wall"):
 
 def fe_path(out: Path, set_name: str, cell, tag: str) -> dict[str, np.ndarray] | None:
     """FE path of ``cell`` with the set's spec (run now, or read back from ``out``)."""
-    from multimorph.calibrated._dataset import reference_spec
-    from multimorph.sweep._backends import FeBackend
+    from fe_mesh_curves import stored_fe_path
 
-    f = out / f"{tag}.npz"
-    if f.exists():
-        with np.load(f) as z:
-            return {k: z[k] for k in z.files}
-    spec = reference_spec(set_name)
-    t0 = time.perf_counter()
-    rec = FeBackend().evaluate_batch([cell], spec.pmax, ("characteristic", "curves"),
-                                     dict(spec.options))[0]
-    if isinstance(rec, Exception):
-        print(f"  {tag}: FE failed: {rec}", flush=True)
-        return None
-    path = {k: np.asarray(rec[k]) for k in KEYS if k in rec}
-    path["wall_time"] = np.array(time.perf_counter() - t0)
-    out.mkdir(parents=True, exist_ok=True)
-    tmp = f.with_suffix(".tmp.npz")
-    np.savez(tmp, **path)
-    tmp.replace(f)
-    return path
+    return stored_fe_path(out / f"{tag}.npz", set_name, cell)
 
 
 def chosen_designs(set_name: str, worst: int, typical: int) -> list[tuple[int, float, str]]:
