@@ -244,3 +244,102 @@ def test_the_tilted_cells_straight_features_read_the_bending_prediction() -> Non
     assert kf.shape == (2, 4)
     np.testing.assert_allclose(kf[:, 3], 0.4 * np.sin(2 * tilt))   # the Ritz shear rule
     assert kind_features("twisting", ritz, tilt).shape == (2, 3)    # Ritz pressures alone
+
+
+def test_censored_outputs_take_the_truncated_normal_of_their_continuation() -> None:
+    """Closed form: with uncorrelated designs (K = I) a censored output's continuation is
+    β δ_e (the regression of output j on output e over the designs with both, δ the
+    leave-one-out error = the residual itself), and it enters as the normal N(β r_e, s²)
+    conditioned on lying above its bound (scipy's truncnorm)."""
+    from scipy.stats import truncnorm
+
+    from multimorph.calibrated._gp import MIN_PAIRS, censored_residuals
+
+    rng = np.random.default_rng(4)
+    n = MIN_PAIRS + 20
+    r = rng.standard_normal((n, 2))
+    r[:, 1] = 0.8 * r[:, 0] + 0.3 * rng.standard_normal(n)
+    mask = np.ones((n, 2), bool)
+    mask[:3, 1] = False                       # three designs stopped after output 0
+    bound = np.full((n, 2), np.nan)
+    bound[:3, 1] = [-5.0, 0.5, 3.0]           # far below, near, far above the continuation
+    out, var, imputed = censored_residuals(np.eye(n), 0.0, np.where(mask, r, 0.0), mask,
+                                           bound)
+    assert imputed[:3, 1].all() and imputed.sum() == 3
+    np.testing.assert_array_equal(out[mask], r[mask])          # observed values kept
+    a, b = r[3:, 0], r[3:, 1]
+    beta = a @ b / (a @ a)
+    s = math.sqrt(np.mean((b - beta * a) ** 2))
+    for i in range(3):
+        mu = beta * r[i, 0]
+        tn = truncnorm((bound[i, 1] - mu) / s, np.inf, loc=mu, scale=s)
+        if i < 2:
+            assert out[i, 1] == pytest.approx(tn.mean(), rel=1e-9)
+            assert var[i, 1] == pytest.approx(tn.var(), rel=1e-6)
+        else:                                 # the bound 3σ+ above: the value sits on it
+            assert out[i, 1] == pytest.approx(tn.mean(), abs=0.1 * s)
+        assert out[i, 1] >= bound[i, 1]
+    assert out[0, 1] == pytest.approx(beta * r[0, 0], abs=1e-6)  # an inactive bound
+
+
+def test_a_fit_with_censored_designs_learns_they_lie_above_their_bound() -> None:
+    """Designs that stop once their output passes a cap (an FE run at its pressure limit)
+    are censored past their end. Where only censored designs live (x0 > 0.6, whose outputs
+    jump above the cap at large t) the masked fit predicts below the cap everywhere, the
+    censored fit learns that they are above it (half its predictions there above the cap,
+    the mean error down by more than 15 %); on a smooth response it changes nothing."""
+    rng = np.random.default_rng(3)
+    n = 120
+    x = rng.uniform(0, 1, (n, 2))
+    t = np.linspace(0.5, 3.0, 12)
+
+    def jump(z: np.ndarray) -> np.ndarray:
+        return (0.5 * z[:, 1:2] + 0.4 * t[None, :]
+                + 2.0 * (z[:, 0:1] > 0.6) * np.maximum(t[None, :] - 1.5, 0.0))
+
+    def smooth(z: np.ndarray) -> np.ndarray:
+        return (0.5 * z[:, 1:2] + (0.6 + 0.2 * z[:, 0:1]) * t[None, :]
+                + 0.25 * z[:, 0:1] ** 2 * t[None, :] ** 2)
+
+    xt = np.column_stack([np.linspace(0.7, 0.95, 20), rng.uniform(0, 1, 20)])
+    for f, cap in ((jump, 1.8), (smooth, float(np.quantile(smooth(x)[:, -1], 0.45)))):
+        y = f(x)
+        mask = np.ones_like(y, bool)
+        for i in range(n):
+            over = np.flatnonzero(y[i] > cap)
+            if over.size:
+                mask[i, over[0] + 1:] = False
+        lower = np.where(~mask, cap, np.nan)
+        masked = fit_gp(x, np.where(mask, y, 0.0), mask, restarts=1)
+        cens = fit_gp(x, np.where(mask, y, 0.0), mask, restarts=1, lower=lower)
+        # the censored outputs join their outputs' solves, the observed ones stay
+        assert cens.mask.sum() > mask.sum() and not (mask & ~cens.mask).any()
+        e_masked = np.abs(masked.predict(xt) - f(xt))[:, -4:]
+        e_cens = np.abs(cens.predict(xt) - f(xt))[:, -4:]
+        if f is jump:
+            assert e_cens.mean() < 0.85 * e_masked.mean()
+            assert (cens.predict(xt)[:, -4:] < cap).sum() <= 0.6 * e_masked.size
+            assert (masked.predict(xt)[:, -4:] < cap).all()
+        else:
+            assert e_cens.max() <= 1.05 * e_masked.max() + 1e-3
+
+
+def test_a_design_stopped_at_its_pressure_limit_is_censored_past_its_end() -> None:
+    """The FE path's stop reason at p_max is the one the training data read as censoring,
+    and the bound covers exactly the grid volumes past such a design's end."""
+    from multimorph.calibrated._fit import STOPPED_AT_P_MAX, TrainingData
+    from multimorph.fe.engine._path import path_end
+
+    assert path_end([0.0, 1.0, 2.0, 3.1], "arc-length", 3.0, False) == STOPPED_AT_P_MAX
+    mask = np.array([[True, True, False, False], [True, False, False, False],
+                     [True, True, True, True]])
+    data = TrainingData(kind="bending", set_name=np.array(["a"] * 3), design=np.arange(3),
+                        groups=np.zeros((3, 1)), features=np.zeros((3, 4)),
+                        y=np.zeros((3, 4, 4)), mask=mask, holdout=np.zeros(3, bool),
+                        cells=[None] * 3, paths=[{}] * 3,
+                        censor=np.array([math.log(2.0), math.nan, math.log(3.0)]))
+    low = data.lower(np.arange(3))
+    np.testing.assert_array_equal(np.isfinite(low), [[False, False, True, True],
+                                                     [False] * 4, [False] * 4])
+    assert low[0, 2] == pytest.approx(math.log(2.0))
+    np.testing.assert_array_equal(np.isfinite(data.lower(np.array([0]))), [[0, 0, 1, 1]])

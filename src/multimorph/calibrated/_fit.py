@@ -50,8 +50,8 @@ from multimorph.calibrated._representation import QUANTITIES, T_GRID, grid_value
 from multimorph.calibrated._ritz import ritz_features
 
 __all__ = ["ANCHORS", "DEFAULT_KINDS", "KIND_SETS", "MODEL_FILE", "TrainingData",
-           "add_signal", "fe_training_data", "fit_anchors", "fit_and_save", "fit_pressure",
-           "fit_signal", "model_inputs",
+           "add_part", "add_pressure", "add_signal", "fe_training_data", "fit_anchors",
+           "fit_and_save", "fit_pressure", "fit_signal", "model_inputs",
            "straight_features", "twin_set"]
 
 MODEL_FILE = DATA_DIR / "model.npz"
@@ -189,6 +189,23 @@ class TrainingData:
     #: tilted cells: their straight cell's :data:`STRAIGHT_FEATURES` at their end level
     #: (None: the twisting kind takes Ritz features)
     straight: np.ndarray | None = None
+    #: log(p_max/μ) of a design whose FE run stopped at its pressure limit (its pressure
+    #: still rising: every grid volume past its end lies above it), NaN otherwise
+    #: (:data:`STOPPED_AT_P_MAX`)
+    censor: np.ndarray | None = None
+
+    def lower(self, rows: np.ndarray) -> np.ndarray:
+        """The censoring bound of log(P/μ) (len(rows), grid): finite at the grid volumes
+        past the end of a design stopped at its pressure limit."""
+        n = len(self.mask)
+        c = np.full(n, np.nan) if self.censor is None else self.censor
+        return np.where(~self.mask & np.isfinite(c)[:, None], c[:, None], np.nan)[rows]
+
+
+#: The stop reason of an FE path that reached its pressure limit with the pressure still
+#: rising (``multimorph.fe.engine._path.stop_reason``): its pressure at every larger
+#: volume is above that limit, a censored observation (``_gp.censored_residuals``).
+STOPPED_AT_P_MAX = "reached p_max"
 
 
 def fe_signal(kind: str, path: dict[str, np.ndarray], n_cells: int) -> np.ndarray:
@@ -213,7 +230,7 @@ def fe_training_data(kind: str, sets: dict[str, ReferenceSet] | None = None,
 
     rows: dict[str, list[Any]] = {k: [] for k in ("set", "design", "groups", "y", "mask",
                                                    "holdout", "cell", "path", "anchors",
-                                                   "end")}
+                                                   "end", "censor")}
     for name in names:
         ref = sets.get(name)
         if ref is None:
@@ -243,6 +260,10 @@ def fe_training_data(kind: str, sets: dict[str, ReferenceSet] | None = None,
             rows["end"].append(1.0 if mirror else 0.0)
             rows["cell"].append(cell)
             rows["path"].append(path)
+            p_max = ref.meta[r].get("p_max")
+            rows["censor"].append(
+                math.log(float(p_max) / c.mu)
+                if ref.meta[r].get("stop_reason") == STOPPED_AT_P_MAX and p_max else math.nan)
             ch = fe_response(path, cell, kind, n_cells).characteristic
             rows["anchors"].append([finite_log((ch.critical or 0.0) / c.mu),
                                     finite_log((ch.hardening or 0.0) / c.mu)])
@@ -260,7 +281,8 @@ def fe_training_data(kind: str, sets: dict[str, ReferenceSet] | None = None,
         y=np.array(rows["y"]).reshape(n, len(T_GRID), len(QUANTITIES[kind])),
         mask=np.array(rows["mask"], bool).reshape(n, len(T_GRID)),
         holdout=np.array(rows["holdout"], bool), cells=rows["cell"], paths=rows["path"],
-        anchors=anchors, end=np.array(rows["end"], float))
+        anchors=anchors, end=np.array(rows["end"], float),
+        censor=np.array(rows["censor"], float))
 
 
 def _tilts(data: TrainingData) -> np.ndarray | None:
@@ -315,15 +337,19 @@ def fit_pressure(data: TrainingData, box: Box, fmean: np.ndarray, fstd: np.ndarr
     (0.4 ≤ t ≤ 2.5) falls by about 40 % (bending: mean |Δ log P| 0.050 → 0.030;
     stretching: 0.033 → 0.019)."""
     return _fit_quantity(data, box, fmean, fstd, 0, PRESSURE_T_FROM, 0.9,
-                         PRESSURE_KERNEL_POINTS, train=train, restarts=restarts)
+                         PRESSURE_KERNEL_POINTS, train=train, restarts=restarts,
+                         censored=True)
 
 
 def _fit_quantity(data: TrainingData, box: Box, fmean: np.ndarray, fstd: np.ndarray,
                   q: int, t_from: float, min_reach: float, points: int, *,
-                  train: np.ndarray | None, restarts: int) -> MultiOutputGP:
+                  train: np.ndarray | None, restarts: int,
+                  censored: bool = False) -> MultiOutputGP:
     """A GP of grid quantity ``q`` alone at every grid volume (the rows ``train``, default
     not held out, features finite), its kernel fitted on ``points`` grid volumes from
-    ``t_from`` on that at least ``min_reach`` of those designs reach."""
+    ``t_from`` on that at least ``min_reach`` of those designs reach. ``censored`` (the
+    pressure, q = 0): a design stopped at its pressure limit informs the grid volumes past
+    its end as censored outputs (:meth:`TrainingData.lower`, ``_gp.censored_residuals``)."""
     kf = data_features(data)
     ok = np.all(np.isfinite(kf), axis=1)
     sel = (~data.holdout if train is None else train) & ok
@@ -335,7 +361,9 @@ def _fit_quantity(data: TrainingData, box: Box, fmean: np.ndarray, fstd: np.ndar
     reach = mask.mean(axis=0)
     jj = np.flatnonzero((reach >= min_reach) & (T_GRID >= t_from))
     jj = jj[np.linspace(0, len(jj) - 1, min(points, len(jj))).astype(int)]
-    return fit_gp(x, np.where(mask, y, 0.0), mask, fit_outputs=jj, restarts=restarts)
+    lower = data.lower(np.flatnonzero(sel)) if censored and q == 0 else None
+    return fit_gp(x, np.where(mask, y, 0.0), mask, fit_outputs=jj, restarts=restarts,
+                  lower=lower)
 
 
 #: The signal GP's kernel (:func:`fit_signal`) is fitted on the signal at this many grid
@@ -379,11 +407,35 @@ def _signal_info(n_train: int, sgp: MultiOutputGP) -> dict[str, Any]:
 
 
 def add_signal(kinds: tuple[str, ...] = ("bending",)) -> dict[str, Any]:
-    """Fit the signal GP (:func:`fit_signal`) of ``kinds`` into the shipped model, both
-    variants, on the shipped kinds' boxes and feature scaling, keeping every other GP as
-    it is; returns the manifest entries written (``<kind>.signal``)."""
+    """Fit the signal GP (:func:`fit_signal`) of ``kinds`` into the shipped model
+    (:func:`add_part`)."""
+    return add_part("signal", kinds)
+
+
+def add_pressure(kinds: tuple[str, ...] = ("bending",), *,
+                 straight_of: StraightOf | None = None) -> dict[str, Any]:
+    """Fit the pressure GP (:func:`fit_pressure`: censored designs included) of ``kinds``
+    into the shipped model (:func:`add_part`). A twisting kind reads its straight cells'
+    log P off the bending kind's pressure GP: after a bending refit, refit the twisting
+    kind (``fit_and_save(kinds=("twisting",))``; the ``fit pressure`` command does)."""
+    return add_part("pressure", kinds, straight_of=straight_of)
+
+
+#: The GPs :func:`add_part` refits: the manifest key and the fitting function of each.
+PARTS = {"signal": fit_signal, "pressure": fit_pressure}
+
+
+def add_part(part: str, kinds: tuple[str, ...] = ("bending",), *,
+             straight_of: StraightOf | None = None) -> dict[str, Any]:
+    """Fit one GP of ``kinds`` (``part``: "signal" or "pressure", :data:`PARTS`) into the
+    shipped model, both variants, on every current training design of the kind, on the
+    shipped kinds' boxes and feature scaling, keeping every other GP as it is; returns the
+    manifest entries written (``<kind>.<part>``). ``straight_of`` gives a twisting kind its
+    straight-cell features (as :func:`fit_and_save`)."""
     from multimorph._provenance import code_version
 
+    if part not in PARTS:
+        raise ValueError(f"fit: unknown part {part!r}; expected one of {sorted(PARTS)}")
     t0 = time.monotonic()
     sets = load_reference()
     with np.load(MODEL_FILE, allow_pickle=False) as z:
@@ -395,34 +447,50 @@ def add_signal(kinds: tuple[str, ...] = ("bending",)) -> dict[str, Any]:
     out: dict[str, Any] = {}
     for kind in kinds:
         if kind not in manifest.get("kinds", {}):
-            raise ValueError(f"fit signal: the shipped model has no {kind!r} kind")
+            raise ValueError(f"fit {part}: the shipped model has no {kind!r} kind")
         data = fe_training_data(kind, sets)
         variants = [("", "kinds", data)]
         if kind in manifest.get("fast_kinds", {}) and FAMILY[kind] in emus:
             variants.append(("fast/", "fast_kinds", replace(data, features=emulated_features(
                 *emus[FAMILY[kind]], data.cells, data.features))))
         for prefix, key, d in variants:
+            if kind == "twisting" and straight_of is not None:
+                d = replace(d, straight=straight_of(arrays, manifest, d, bool(prefix)))
             p = f"{prefix}{kind}/"
             info = manifest[key][kind]
             box = Box(kind, tuple(info["groups"]), np.asarray(arrays[f"{p}box_low"]),
                       np.asarray(arrays[f"{p}box_high"]))
             kf = data_features(d)
             train = ~d.holdout & np.all(np.isfinite(kf), axis=1)
-            sgp = fit_signal(d, box, np.asarray(arrays[f"{p}feature_mean"]),
+            gp = PARTS[part](d, box, np.asarray(arrays[f"{p}feature_mean"]),
                              np.asarray(arrays[f"{p}feature_std"]), train=train)
-            arrays = {k: v for k, v in arrays.items() if not k.startswith(f"{p}signal/")}
-            arrays.update(sgp.to_arrays(f"{p}signal/"))
-            info["signal"] = _signal_info(int(train.sum()), sgp)
-            out[f"{prefix}{kind}"] = info["signal"]
-            _log(f"{kind}{' (fast)' if prefix else ''}: signal GP on {int(train.sum())} "
+            arrays = {k: v for k, v in arrays.items() if not k.startswith(f"{p}{part}/")}
+            arrays.update(gp.to_arrays(f"{p}{part}/"))
+            if part == "signal":
+                info["signal"] = _signal_info(int(train.sum()), gp)
+            else:
+                info["pressure_length_scales"] = gp.length.round(4).tolist()
+                info["pressure"] = _pressure_info(d, train, gp)
+            out[f"{prefix}{kind}"] = info[part]
+            _log(f"{kind}{' (fast)' if prefix else ''}: {part} GP on {int(train.sum())} "
                  "designs")
     manifest["code_version"] = code_version()
     tmp = MODEL_FILE.with_name(f".{MODEL_FILE.stem}.tmp.npz")
     np.savez_compressed(tmp, **arrays)
     os.replace(tmp, MODEL_FILE)
     MODEL_MANIFEST.write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
-    _log(f"wrote {MODEL_FILE} (signal GPs) in {time.monotonic() - t0:.1f} s")
+    _log(f"wrote {MODEL_FILE} ({part} GPs) in {time.monotonic() - t0:.1f} s")
     return out
+
+
+def _pressure_info(data: TrainingData, train: np.ndarray, gp: MultiOutputGP) -> dict[str, Any]:
+    """The manifest entry of a kind's pressure GP."""
+    censored = data.censor is not None and np.isfinite(data.censor) & train
+    return {"training_designs": int(train.sum()), "length_scales": gp.length.round(4).tolist(),
+            "noise": gp.noise, "t_from": PRESSURE_T_FROM,
+            "kernel_points": PRESSURE_KERNEL_POINTS,
+            "censored_designs": int(np.sum(censored)),
+            "imputed_outputs": int(np.sum(gp.mask & ~data.mask[train]))}
 
 
 #: The anchors: FE pressures predicted on their own (see the module docstring).
@@ -570,6 +638,7 @@ def _fit_one(kind: str, data: TrainingData, prefix: str, arrays: dict[str, np.nd
         "sets": list(KIND_SETS[kind]), "training_designs": int(train.sum()),
         "held_out": int(data.holdout.sum()), "length_scales": gp.length.round(4).tolist(),
         "pressure_length_scales": pgp.length.round(4).tolist(),
+        "pressure": _pressure_info(data, train, pgp),
         **({"signal": _signal_info(int(train.sum()), sgp)} if sgp is not None else {}),
         "noise": gp.noise, "groups": list(GROUP_NAMES[kind]),
         "features": ("emulated" if prefix else "ritz") if data.straight is None else (

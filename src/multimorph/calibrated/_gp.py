@@ -7,6 +7,14 @@ linear mean (ridge regression on the inputs), its own scale, and its own set of 
 designs (a design that ended before a grid volume does not inform that grid point). The
 mean prediction of all outputs is one kernel matrix times one weight matrix.
 
+A design whose outputs stop because its value passed a known bound (an FE run stopped at
+its pressure limit: every later grid volume lies above that pressure) is *censored*, not
+missing: with ``lower``, :func:`fit_gp` imputes those outputs by their conditional mean
+given the design's last observed output, truncated below at the bound (a Tobit-type
+treatment), and lets them into their outputs' solves with the conditional variance added
+to the noise, so that every output of a grid volume sees the same designs as its
+neighbours (``_fit.fit_pressure``; docs/validation.md §2).
+
 Reference: C. E. Rasmussen, C. K. I. Williams, Gaussian Processes for Machine Learning,
 MIT Press (2006), ch. 2 and 4.
 """
@@ -19,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["MultiOutputGP", "fit_gp", "matern52"]
+__all__ = ["MultiOutputGP", "censored_residuals", "fit_gp", "matern52"]
 
 
 def matern52(a: np.ndarray, b: np.ndarray, length: np.ndarray) -> np.ndarray:
@@ -103,9 +111,80 @@ def _linear(x: np.ndarray, y: np.ndarray, ridge: float) -> np.ndarray:
     return np.linalg.solve(A.T @ A + reg, A.T @ y)
 
 
+#: Fewest designs with both outputs for the regression that continues a censored design.
+MIN_PAIRS = 30
+
+
+def censored_residuals(K: np.ndarray, noise: float, resid: np.ndarray, mask: np.ndarray,
+                       bound: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Impute the censored outputs of standardised residuals ``resid`` (n, m; observed
+    where ``mask``; ``K`` the unit-amplitude kernel matrix of the n designs): output j of
+    design i is censored where ``bound[i, j]`` is finite and it is not observed — it lies
+    above that bound.
+
+    Its value combines what the other designs say and what the design's own observed
+    outputs say: the GP of output j (its observed designs) predicts m_j(x_i), and the
+    design's leave-one-out error at its last observed output e, δ_e (observed minus the
+    prediction without it), is carried over by the regression of the leave-one-out errors
+    at j on those at e over the designs that have both (β, residual variance s²; at least
+    :data:`MIN_PAIRS` designs): r ~ N(m_j(x_i) + β δ_e, s²). That is then conditioned on
+    r > bound: the truncated normal's mean μ + s λ(α) and variance s² (1 + α λ − λ²),
+    α = (bound − μ)/s, λ = φ(α)/(1 − Φ(α)).
+    Returns (residuals with the imputed values, their variance (0 where observed), the
+    mask of imputed entries)."""
+    from scipy.linalg import cho_factor, cho_solve
+    from scipy.special import ndtr
+
+    resid = np.array(resid, float)
+    n, m = resid.shape
+    extra = np.zeros((n, m))
+    imputed = np.zeros((n, m), bool)
+    cens = np.isfinite(bound) & ~mask
+    todo = np.flatnonzero(cens.any(axis=1) & mask.any(axis=1))
+    if todo.size == 0:
+        return resid, extra, imputed
+    cache: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+
+    def solved(j: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(designs of output j, their weights, their leave-one-out errors (n,))"""
+        if j not in cache:
+            sel = np.flatnonzero(mask[:, j])
+            c = cho_factor(K[np.ix_(sel, sel)] + noise * np.eye(sel.size), lower=True)
+            alpha = cho_solve(c, resid[sel, j])
+            inv_diag = np.diag(cho_solve(c, np.eye(sel.size)))
+            loo = np.full(n, np.nan)
+            loo[sel] = alpha / inv_diag
+            cache[j] = (sel, alpha, loo)
+        return cache[j]
+
+    for i in todo:
+        e = int(np.flatnonzero(mask[i])[-1])
+        _, _, loo_e = solved(e)
+        for j in np.flatnonzero(cens[i]):
+            sel, alpha, loo_j = solved(int(j))
+            both = np.isfinite(loo_e) & np.isfinite(loo_j)
+            if both.sum() < MIN_PAIRS:
+                continue
+            a, b = loo_e[both], loo_j[both]
+            beta = float(a @ b) / max(float(a @ a), 1e-300)
+            s2 = max(float(np.mean((b - beta * a) ** 2)), 1e-12)
+            mu = float(K[i, sel] @ alpha) + beta * float(loo_e[i])
+            sd = math.sqrt(s2)
+            al = (bound[i, j] - mu) / sd
+            tail = float(ndtr(-al))
+            if tail > 1e-12:
+                lam = math.exp(-0.5 * al * al) / math.sqrt(2.0 * math.pi) / tail
+                mu, var = mu + sd * lam, s2 * max(1.0 + al * lam - lam * lam, 1e-6)
+            else:                            # the bound far above the continuation
+                mu, var = float(bound[i, j]), s2 * 1e-6
+            resid[i, j], extra[i, j], imputed[i, j] = mu, var, True
+    return resid, extra, imputed
+
+
 def fit_gp(x: np.ndarray, y: np.ndarray, mask: np.ndarray, *, fit_outputs: np.ndarray | None
            = None, ridge: float = 1e-3, restarts: int = 3, seed: int = 0,
-           noise_bounds: tuple[float, float] = (1e-6, 1.0)) -> MultiOutputGP:
+           noise_bounds: tuple[float, float] = (1e-6, 1.0),
+           lower: np.ndarray | None = None) -> MultiOutputGP:
     """Fit a :class:`MultiOutputGP` to inputs ``x`` (n, k) and outputs ``y`` (n, m) known
     where ``mask`` (n, m).
 
@@ -113,6 +192,11 @@ def fit_gp(x: np.ndarray, y: np.ndarray, mask: np.ndarray, *, fit_outputs: np.nd
     optimiser on the outputs ``fit_outputs`` (default: all) over the designs that have all
     of them, each output's linear-mean residual scaled to unit variance; then each output's
     weights are solved on its own designs.
+
+    ``lower`` (n, m): where finite and the output is not in ``mask``, the design is known to
+    lie above it there (censored; :func:`censored_residuals`): the output is imputed and
+    solved with the design too (the returned ``mask`` includes it). The kernel, the linear
+    means and the scales are those of the observed outputs alone.
     """
     from scipy.linalg import cho_factor, cho_solve
     from sklearn.gaussian_process import GaussianProcessRegressor
@@ -149,12 +233,19 @@ def fit_gp(x: np.ndarray, y: np.ndarray, mask: np.ndarray, *, fit_outputs: np.nd
     scale = scale * math.sqrt(amp)
     resid = resid / math.sqrt(amp)
     K = matern52(x, x, length)
+    extra = np.zeros((n, m))
+    if lower is not None:
+        bound = (np.asarray(lower, float)
+                 - np.column_stack([np.ones(n), x]) @ coef) / scale[None, :]
+        resid, extra, imputed = censored_residuals(K, noise, resid, mask, np.where(
+            np.isfinite(lower), bound, np.nan))
+        mask = mask | imputed
     weights = np.zeros((n, m))
     for j in range(m):
         sel = mask[:, j]
         if not sel.any():
             continue
-        Ks = K[np.ix_(sel, sel)] + noise * np.eye(int(sel.sum()))
+        Ks = K[np.ix_(sel, sel)] + np.diag(noise + extra[sel, j])
         weights[sel, j] = cho_solve(cho_factor(Ks, lower=True), resid[sel, j])
     chol = np.linalg.cholesky(K + noise * np.eye(n))
     return MultiOutputGP(x=x, length=length, noise=noise, mask=mask, weights=weights,

@@ -4,6 +4,7 @@
     python -m multimorph.calibrated.fit model [--emulators] [--kinds K ...]  # data/model.npz
     python -m multimorph.calibrated.fit twist-shear                    # tilted cells' shear factor
     python -m multimorph.calibrated.fit signal [--kinds bending]       # the signal GP alone
+    python -m multimorph.calibrated.fit pressure [--kinds bending]     # the pressure GP alone
 
 The FE reference data set comes first (``python -m multimorph.calibrated.build_dataset``).
 """
@@ -83,7 +84,28 @@ def main(argv: list[str] | None = None) -> int:
                         "snap) of these kinds into the shipped model, keeping its other GPs "
                         "(also done by 'model')")
     sg.add_argument("--kinds", nargs="+", metavar="KIND", default=["bending"])
+    pr = sub.add_parser("pressure", help="fit the pressure GP (log P on the grid, designs "
+                        "stopped at their pressure limit as censored data) of these kinds "
+                        "into the shipped model on every current training design, keeping "
+                        "its other GPs; a bending refit refits the twisting kind that reads "
+                        "it, and the strip-shear factor (also done by 'model')")
+    pr.add_argument("--kinds", nargs="+", metavar="KIND", default=["bending"])
     args = ap.parse_args(argv)
+    if args.what == "pressure":
+        from multimorph.calibrated._fit import add_pressure, fit_and_save
+        from multimorph.calibrated._model import straight_of
+
+        try:
+            add_pressure(tuple(args.kinds), straight_of=straight_of)
+        except ValueError as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return 2
+        if "bending" in args.kinds and "twisting" not in args.kinds:
+            # the twisting kind's inputs are the bending kind's log P: refitted whole
+            fit_and_save(kinds=("twisting",), straight_of=straight_of)
+        if {"bending", "twisting"} & set(args.kinds):
+            fit_twist_shear()
+        return 0
     if args.what == "signal":
         from multimorph.calibrated._fit import add_signal
 
