@@ -258,12 +258,14 @@ def test_the_bending_signal_gp_brings_the_curve_after_the_snap_closer_to_fe() ->
 
 
 def test_where_the_anchor_and_the_path_disagree_the_band_and_the_cell_line_say_so() -> None:
-    """A held-out one-elastomer cell that barely bends (``bending_single_mirror`` #15):
-    the model's path reads its Pc at 5.9 kPa, its anchor at 38.8 kPa, FE at 35.3 (a limit
-    point). The anchor is left out (more than MAX_FACTOR from the path's reading), so the
-    reported Pc is the path's; its ±1σ band must then reach over the anchor's own ±1σ
-    (FE inside it), and the readable cell line (and a device's, for its module) must say
-    so."""
+    """A cell whose path and anchor read Pc far apart (``bending_lowjm_mirror`` #21, a
+    Jm 9–14 cell no fit has seen): the model's path reads its Pc at 4.4 kPa, its anchor at
+    32.5 kPa, FE at 4.5. The anchor is left out (more than MAX_FACTOR from the path's
+    reading), so the reported Pc is the path's; its ±1σ band must then reach over the
+    anchor's own ±1σ (FE inside it), and the readable cell line (and a device's, for its
+    module) must say so. (Until stop 44 the case was ``bending_single_mirror`` #15, where
+    the anchor was the right one; stop 45's path reads it within 16 % and uses its
+    anchor.)"""
     import math
 
     from multimorph.calibrated._anchor import MAX_FACTOR
@@ -272,13 +274,13 @@ def test_where_the_anchor_and_the_path_disagree_the_band_and_the_cell_line_say_s
     from multimorph.calibrated.validate import requested_pressure
     from multimorph.cli._cell import model_line
 
-    ref = load_reference()["bending_single_mirror"]
-    row = int(np.flatnonzero(ref.design == 15)[0])
+    ref = load_reference()["bending_lowjm_mirror"]
+    row = int(np.flatnonzero(ref.design == 21)[0])
     cell, path = ref.cell(row), ref.path(row)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", CalibrationWarning)
         resp = load_model().responses([cell], requested_pressure(
-            "bending_single_mirror", 15, path), fast=True)[0]
+            "bending_lowjm_mirror", 21, path), fast=True)[0]
     cal = resp.meta["calibration"]
     a = cal["anchors"]
     own, anchor = a["path_critical_pressure"], a["critical_pressure"]

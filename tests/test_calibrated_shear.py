@@ -106,20 +106,20 @@ def test_the_shipped_factor_scales_the_shear_and_leaves_pc_ph_alone() -> None:
     assert fit["leave_one_out_error"]["p90"] < 0.7 * fit["rule_error"]["p90"]
     assert fit["holdout_error"]["median"] <= fit["holdout_rule_error"]["median"]
     assert fit["holdout_error"]["p90"] < 0.8 * fit["holdout_rule_error"]["p90"]
-    # since stop 40 the volume law is the shipped form, taken because it beats the factor
-    # in leave-one-out (median and p90: the rule of fit_twist_shear); the factor is fitted
-    # beside it, and read here as the form. Out of sample both beat the bare rule by far.
-    # (Until stop 44 the volume law also beat the factor on the held-out tilted cells; on
-    # the twisting kind refitted in stop 45 the 44 held-out cells prefer the factor at the
-    # median, 0.15 against 0.25, while the validation's tilted curves prefer the volume
-    # law: graphs within 10 % 47 against 46 % of 178, docs/validation.md §4.)
-    assert fit.get("form") == "volume"
+    # the volume law (stop 40) is the shipped form where it beats the factor in
+    # leave-one-out, median and p90 (fit_twist_shear's rule), the factor otherwise; both
+    # beat the bare rule out of sample by far. (Stops 40-44 shipped the volume law, which
+    # then won on the held-out cells too; the bending pressure and path GPs refitted in
+    # stop 45 moved the straight paths the rule reads, and the factor now wins the p90:
+    # 0.48 against 0.53, held out 0.47 against 0.55; docs/validation.md §4.)
     vl = fit["volume_law"]
     assert vl["training_designs"] > 0 and {"median", "p90"} <= set(vl["holdout_error"])
-    assert vl["leave_one_out_error"]["median"] <= fit["leave_one_out_error"]["median"]
-    assert vl["leave_one_out_error"]["p90"] < fit["leave_one_out_error"]["p90"]
-    assert vl["holdout_error"]["median"] < 0.6 * fit["holdout_rule_error"]["median"]
-    assert vl["holdout_error"]["p90"] < 0.6 * fit["holdout_rule_error"]["p90"]
+    wins = (vl["leave_one_out_error"]["median"] < fit["leave_one_out_error"]["median"]
+            and vl["leave_one_out_error"]["p90"] < fit["leave_one_out_error"]["p90"])
+    assert fit.get("form") == ("volume" if wins else "factor")
+    for err in (vl["holdout_error"], fit["holdout_error"]):
+        assert err["median"] < 0.6 * fit["holdout_rule_error"]["median"]
+        assert err["p90"] < 0.6 * fit["holdout_rule_error"]["p90"]
     model = copy.copy(model)
     model.twisting_shear = {**fit, "form": "factor"}
     bare = copy.copy(model)
@@ -278,3 +278,27 @@ def test_a_tilted_cell_is_answered_on_its_own_calibrated_path() -> None:
     s = model.tilted_by_straight([wide], 3e5)[0]
     assert np.allclose(r.path.pressure, s.path.pressure)
     assert "straight cell" in r.meta["calibration"]["twisting"]
+
+
+def test_a_tilted_cell_without_shear_at_its_pc_still_gets_an_answer_and_a_finite_band() -> None:
+    """Held-out `twisting` #45 shears almost nothing where its Pc sits: the shear band
+    relative to it has no width to speak of. It used to overflow (math range error) and
+    leave the cell without an answer; the band is now capped (no information), the
+    response otherwise the same."""
+    import json
+
+    from multimorph.calibrated._dataset import load_reference
+    from multimorph.calibrated._model import SHEAR_BAND_CAP
+    from multimorph.calibrated.validate import at_end_of, requested_pressure
+
+    ref = load_reference()["twisting"]
+    row = int(np.flatnonzero(ref.design == 45)[0])
+    cell, path = ref.cell(row), ref.path(row)
+    model, _ = at_end_of(copy.copy(load_model()), "twisting", "twisting")
+    model.twisting_shear = {**model.twisting_shear, "form": "factor"}
+    for fast in (True, False):
+        r = model.responses([cell], requested_pressure("twisting", 45, path), fast=fast)[0]
+        assert not isinstance(r, Exception), r
+        lo, hi = r.meta["calibration"]["shear_range"]
+        assert math.exp(-SHEAR_BAND_CAP) <= lo <= 1.0 <= hi <= math.exp(SHEAR_BAND_CAP)
+        json.dumps(r.meta["calibration"])            # a JSON-able record

@@ -51,7 +51,7 @@ from multimorph.calibrated._ritz import ritz_features
 
 __all__ = ["ANCHORS", "DEFAULT_KINDS", "KIND_SETS", "MODEL_FILE", "TrainingData",
            "add_part", "add_pressure", "add_signal", "fe_training_data", "fit_anchors",
-           "fit_and_save", "fit_pressure", "fit_signal", "model_inputs",
+           "fit_and_save", "fit_path", "fit_pressure", "fit_signal", "model_inputs",
            "straight_features", "twin_set"]
 
 MODEL_FILE = DATA_DIR / "model.npz"
@@ -305,6 +305,17 @@ def fit_kind(data: TrainingData, box: Box, *, train: np.ndarray | None = None,
     sel = (~data.holdout if train is None else train) & ok
     fmean = kf[sel].mean(axis=0)
     fstd = kf[sel].std(axis=0) + 1e-12
+    return fit_path(data, box, fmean, fstd, train=sel, restarts=restarts), fmean, fstd
+
+
+def fit_path(data: TrainingData, box: Box, fmean: np.ndarray, fstd: np.ndarray, *,
+             train: np.ndarray | None = None, restarts: int = 2) -> MultiOutputGP:
+    """The path GP of one kind (every grid quantity at every grid volume, one kernel) on
+    the rows ``train`` (default: not held out, features finite), its inputs scaled by
+    ``fmean`` and ``fstd``."""
+    kf = data_features(data)
+    ok = np.all(np.isfinite(kf), axis=1)
+    sel = (~data.holdout if train is None else train) & ok
     end = end_column(data)
     x = model_inputs(box, data.groups[sel], kf[sel], fmean, fstd,
                      None if end is None else end[sel])
@@ -316,8 +327,7 @@ def fit_kind(data: TrainingData, box: Box, *, train: np.ndarray | None = None,
     jj = np.flatnonzero(reach >= 0.9)
     jj = jj[np.linspace(0, len(jj) - 1, min(6, len(jj))).astype(int)]
     fit_out = np.array([j * nq + q for j in jj for q in (0, 1)])
-    gp = fit_gp(x, y, mask, fit_outputs=fit_out, restarts=restarts)
-    return gp, fmean, fstd
+    return fit_gp(x, y, mask, fit_outputs=fit_out, restarts=restarts)
 
 
 #: The pressure GP's kernel is fitted on log P at this many grid volumes from
@@ -421,13 +431,15 @@ def add_pressure(kinds: tuple[str, ...] = ("bending",), *,
     return add_part("pressure", kinds, straight_of=straight_of)
 
 
-#: The GPs :func:`add_part` refits: the manifest key and the fitting function of each.
-PARTS = {"signal": fit_signal, "pressure": fit_pressure}
+#: The GPs :func:`add_part` refits, and the fitting function of each (the path GP's arrays
+#: sit at the kind's own prefix, the others' under ``<part>/``).
+PARTS = {"signal": fit_signal, "pressure": fit_pressure, "path": fit_path}
+_GP_KEYS = ("x", "length", "noise", "mask", "weights", "coef", "scale", "chol")
 
 
 def add_part(part: str, kinds: tuple[str, ...] = ("bending",), *,
              straight_of: StraightOf | None = None) -> dict[str, Any]:
-    """Fit one GP of ``kinds`` (``part``: "signal" or "pressure", :data:`PARTS`) into the
+    """Fit one GP of ``kinds`` (``part``: "signal", "pressure" or "path", :data:`PARTS`) into the
     shipped model, both variants, on every current training design of the kind, on the
     shipped kinds' boxes and feature scaling, keeping every other GP as it is; returns the
     manifest entries written (``<kind>.<part>``). ``straight_of`` gives a twisting kind its
@@ -464,13 +476,19 @@ def add_part(part: str, kinds: tuple[str, ...] = ("bending",), *,
             train = ~d.holdout & np.all(np.isfinite(kf), axis=1)
             gp = PARTS[part](d, box, np.asarray(arrays[f"{p}feature_mean"]),
                              np.asarray(arrays[f"{p}feature_std"]), train=train)
-            arrays = {k: v for k, v in arrays.items() if not k.startswith(f"{p}{part}/")}
-            arrays.update(gp.to_arrays(f"{p}{part}/"))
+            where = p if part == "path" else f"{p}{part}/"
+            arrays = {k: v for k, v in arrays.items() if not (
+                k.startswith(where) and (part != "path" or k[len(p):] in _GP_KEYS))}
+            arrays.update(gp.to_arrays(where))
             if part == "signal":
                 info["signal"] = _signal_info(int(train.sum()), gp)
-            else:
+            elif part == "pressure":
                 info["pressure_length_scales"] = gp.length.round(4).tolist()
                 info["pressure"] = _pressure_info(d, train, gp)
+            else:
+                info["length_scales"] = gp.length.round(4).tolist()
+                info["noise"] = gp.noise
+                info["path"] = {"training_designs": int(train.sum())}
             out[f"{prefix}{kind}"] = info[part]
             _log(f"{kind}{' (fast)' if prefix else ''}: {part} GP on {int(train.sum())} "
                  "designs")

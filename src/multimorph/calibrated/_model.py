@@ -454,6 +454,9 @@ class CalibratedModel:
             at = (int(np.argmin(np.abs(np.asarray(path.pressure) - ch.critical)))
                   if ch.critical is not None else len(path) - 1)
             rel = float(sd[min(at, len(sd) - 1)] / max(float(g[at]), 1e-12))
+            # a shear near zero at Pc has no relative band: capped at a factor of e^10
+            # (no information) rather than overflowing (twisting #45 on the factor form)
+            rel = min(rel, SHEAR_BAND_CAP) if math.isfinite(rel) else SHEAR_BAND_CAP
             meta["calibration"].update(shear, shear_range=[math.exp(-rel), math.exp(rel)])
         return resp.with_meta(**meta)
 
@@ -489,6 +492,10 @@ class CalibratedModel:
                                    "(inputs: the groups, the tilt and the straight cell's "
                                    "calibrated pressures at the plate level); " + how),
                       "shear_law": "volume+gp" if law is not None else "gp", "std": sd}
+
+
+#: The largest relative half-width (in log) of a tilted cell's shear band at its Pc.
+SHEAR_BAND_CAP = 10.0
 
 
 def _weighted_shear(path: EquilibriumPath, sigma_rule: float, y_t: np.ndarray,

@@ -5,6 +5,7 @@
     python -m multimorph.calibrated.fit twist-shear                    # tilted cells' shear factor
     python -m multimorph.calibrated.fit signal [--kinds bending]       # the signal GP alone
     python -m multimorph.calibrated.fit pressure [--kinds bending]     # the pressure GP alone
+    python -m multimorph.calibrated.fit path [--kinds bending]         # the path GP alone
 
 The FE reference data set comes first (``python -m multimorph.calibrated.build_dataset``).
 """
@@ -90,7 +91,24 @@ def main(argv: list[str] | None = None) -> int:
                         "its other GPs; a bending refit refits the twisting kind that reads "
                         "it, and the strip-shear factor (also done by 'model')")
     pr.add_argument("--kinds", nargs="+", metavar="KIND", default=["bending"])
+    pa = sub.add_parser("path", help="fit the path GP (every grid quantity, one kernel) of "
+                        "these kinds into the shipped model on every current training "
+                        "design, on its feature scaling, keeping its other GPs; a bending "
+                        "refit refits the strip-shear factor (also done by 'model')")
+    pa.add_argument("--kinds", nargs="+", metavar="KIND", default=["bending"])
     args = ap.parse_args(argv)
+    if args.what == "path":
+        from multimorph.calibrated._fit import add_part
+        from multimorph.calibrated._model import straight_of
+
+        try:
+            add_part("path", tuple(args.kinds), straight_of=straight_of)
+        except ValueError as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return 2
+        if {"bending", "twisting"} & set(args.kinds):
+            fit_twist_shear()      # its rule reads the straight cell's calibrated path
+        return 0
     if args.what == "pressure":
         from multimorph.calibrated._fit import add_pressure, fit_and_save
         from multimorph.calibrated._model import straight_of
