@@ -76,10 +76,19 @@ def _signal(resp: Response) -> tuple[np.ndarray, np.ndarray]:
 #: both readings exist: Pc 2.7 / 9.9 %, Ph 3.3 / 7.7 %; never chose a fit: Pc 3.0 /
 #: 12.1 %, Ph 2.8 / 10.2 %). The same cap holds for stretching cells.
 #:
+#: Bending cells (stop 45): 0.75 on both. The pressure and path GPs on every training design
+#: (docs/validation.md §2 item 3) made the path's own readings better, and the same
+#: cross-validation (3 folds grouping twins; each fold's pressure, path and signal GPs
+#: refitted without the fold's designs and their twins, the anchors on stop 33's rows
+#: without them; 216 mirror cells with both readings of Pc, 141 of Ph; capped as below)
+#: now reads Pc 4.2 / 10.5 % from the anchor, 2.7 / 8.0 % at 0.5 (mean 3.8 %), 2.6 / 7.9 %
+#: at 0.75 (3.5 %), 2.5 / 8.1 % at 1; Ph 4.9 / 14.3 %, 3.7 / 11.3 % at 0.25 (mean 5.4 %),
+#: 3.6 / 9.8 % at 0.5, 2.8 / 8.6 % at 0.75 (4.2 %), 2.7 / 9.0 % at 1.
+#:
 #: Tilted cells keep the anchor alone: the cross-validation gains nothing there (5 folds,
 #: 236 cells: Pc 6.8 / 20.5 → 6.7 / 21.0 % at 0.5, Ph 8.1 / 19.2 → 6.2 / 19.3 %).
 PATH_WEIGHT: dict[str, tuple[float, float]] = {"stretching": (0.5, 0.5),
-                                               "bending": (0.5, 0.25)}
+                                               "bending": (0.75, 0.75)}
 
 
 def _blend(anchor: float, own: float | None, w: float, cap: float = math.inf) -> float:
