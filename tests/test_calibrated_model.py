@@ -303,3 +303,17 @@ def test_where_the_anchor_and_the_path_disagree_the_band_and_the_cell_line_say_s
     words = model_words({"model": "calibrated-fast", "modules": {
         "fingers": {"calibration": cal}, "twister": {"calibration": {"anchors": agree}}}})
     assert "Pc uncertain for fingers " in words and "twister" not in words
+
+
+@pytest.mark.parametrize("part", ["signal", "pressure", "path"])
+def test_refitting_a_part_for_an_unknown_kind_is_refused_and_writes_nothing(part, capsys):
+    """`python -m multimorph.calibrated.fit signal|pressure|path --kinds K`: a kind the
+    shipped model does not have is an error naming it (exit 2), and the model files are
+    left as they were."""
+    from multimorph.calibrated._fit import MODEL_FILE, MODEL_MANIFEST
+    from multimorph.calibrated.fit import main
+
+    before = (MODEL_FILE.stat().st_mtime_ns, MODEL_MANIFEST.read_bytes())
+    assert main([part, "--kinds", "wobbling"]) == 2
+    assert f"fit {part}: the shipped model has no 'wobbling' kind" in capsys.readouterr().err
+    assert (MODEL_FILE.stat().st_mtime_ns, MODEL_MANIFEST.read_bytes()) == before

@@ -50,7 +50,7 @@ from multimorph.calibrated._representation import QUANTITIES, T_GRID, grid_value
 from multimorph.calibrated._ritz import ritz_features
 
 __all__ = ["ANCHORS", "DEFAULT_KINDS", "KIND_SETS", "MODEL_FILE", "TrainingData",
-           "add_part", "add_pressure", "add_signal", "fe_training_data", "fit_anchors",
+           "add_part", "add_signal", "fe_training_data", "fit_anchors",
            "fit_and_save", "fit_path", "fit_pressure", "fit_signal", "model_inputs",
            "straight_features", "twin_set"]
 
@@ -203,7 +203,7 @@ class TrainingData:
 
 
 #: The stop reason of an FE path that reached its pressure limit with the pressure still
-#: rising (``multimorph.fe.engine._path.stop_reason``): its pressure at every larger
+#: rising (``multimorph.fe.engine._path.path_end``): its pressure at every larger
 #: volume is above that limit, a censored observation (``_gp.censored_residuals``).
 STOPPED_AT_P_MAX = "reached p_max"
 
@@ -422,15 +422,6 @@ def add_signal(kinds: tuple[str, ...] = ("bending",)) -> dict[str, Any]:
     return add_part("signal", kinds)
 
 
-def add_pressure(kinds: tuple[str, ...] = ("bending",), *,
-                 straight_of: StraightOf | None = None) -> dict[str, Any]:
-    """Fit the pressure GP (:func:`fit_pressure`: censored designs included) of ``kinds``
-    into the shipped model (:func:`add_part`). A twisting kind reads its straight cells'
-    log P off the bending kind's pressure GP: after a bending refit, refit the twisting
-    kind (``fit_and_save(kinds=("twisting",))``; the ``fit pressure`` command does)."""
-    return add_part("pressure", kinds, straight_of=straight_of)
-
-
 #: The GPs :func:`add_part` refits, and the fitting function of each (the path GP's arrays
 #: sit at the kind's own prefix, the others' under ``<part>/``).
 PARTS = {"signal": fit_signal, "pressure": fit_pressure, "path": fit_path}
@@ -503,7 +494,8 @@ def add_part(part: str, kinds: tuple[str, ...] = ("bending",), *,
 
 def _pressure_info(data: TrainingData, train: np.ndarray, gp: MultiOutputGP) -> dict[str, Any]:
     """The manifest entry of a kind's pressure GP."""
-    censored = data.censor is not None and np.isfinite(data.censor) & train
+    censored = (np.zeros(len(train), bool) if data.censor is None
+                else np.isfinite(data.censor) & train)
     return {"training_designs": int(train.sum()), "length_scales": gp.length.round(4).tolist(),
             "noise": gp.noise, "t_from": PRESSURE_T_FROM,
             "kernel_points": PRESSURE_KERNEL_POINTS,

@@ -9,11 +9,12 @@ mean prediction of all outputs is one kernel matrix times one weight matrix.
 
 A design whose outputs stop because its value passed a known bound (an FE run stopped at
 its pressure limit: every later grid volume lies above that pressure) is *censored*, not
-missing: with ``lower``, :func:`fit_gp` imputes those outputs by their conditional mean
-given the design's last observed output, truncated below at the bound (a Tobit-type
-treatment), and lets them into their outputs' solves with the conditional variance added
-to the noise, so that every output of a grid volume sees the same designs as its
-neighbours (``_fit.fit_pressure``; docs/validation.md §2).
+missing: with ``lower``, :func:`fit_gp` imputes those outputs from the output's own GP
+prediction at the design and the design's leave-one-out error at its last observed
+output carried over (:func:`censored_residuals`), truncated below at the bound (a
+Tobit-type treatment), and lets them into their outputs' solves with the conditional
+variance added to the noise, so that every output of a grid volume sees the same designs
+as its neighbours (``_fit.fit_pressure``; docs/validation.md §2 item 3).
 
 Reference: C. E. Rasmussen, C. K. I. Williams, Gaussian Processes for Machine Learning,
 MIT Press (2006), ch. 2 and 4.

@@ -61,6 +61,27 @@ def fit_twist_shear(form: str = "volume") -> dict[str, Any]:
     return fit
 
 
+def _refit_part(part: str, kinds: tuple[str, ...]) -> int:
+    """``fit signal|pressure|path``: one GP of ``kinds`` into the shipped model
+    (``_fit.add_part``), then what reads it: the twisting kind after a bending pressure
+    refit (its inputs are the bending kind's log P), the strip-shear factor after a
+    pressure or path refit of bending or twisting (its rule reads the straight cells'
+    calibrated paths)."""
+    from multimorph.calibrated._fit import add_part, fit_and_save
+    from multimorph.calibrated._model import straight_of
+
+    try:
+        add_part(part, kinds, straight_of=straight_of)
+    except ValueError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    if part == "pressure" and "bending" in kinds and "twisting" not in kinds:
+        fit_and_save(kinds=("twisting",), straight_of=straight_of)
+    if part != "signal" and {"bending", "twisting"} & set(kinds):
+        fit_twist_shear()
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = ap.add_subparsers(dest="what", required=True)
@@ -81,58 +102,24 @@ def main(argv: list[str] | None = None) -> int:
                     help="the shear's form in the model: the volume law where it beats the "
                          "factor in leave-one-out (default, since stop 40), or the factor "
                          "on the Ritz rule (calibrated._shear)")
-    sg = sub.add_parser("signal", help="fit the signal GP (a kernel of its own past the "
-                        "snap) of these kinds into the shipped model, keeping its other GPs "
-                        "(also done by 'model')")
-    sg.add_argument("--kinds", nargs="+", metavar="KIND", default=["bending"])
-    pr = sub.add_parser("pressure", help="fit the pressure GP (log P on the grid, designs "
-                        "stopped at their pressure limit as censored data) of these kinds "
-                        "into the shipped model on every current training design, keeping "
-                        "its other GPs; a bending refit refits the twisting kind that reads "
-                        "it, and the strip-shear factor (also done by 'model')")
-    pr.add_argument("--kinds", nargs="+", metavar="KIND", default=["bending"])
-    pa = sub.add_parser("path", help="fit the path GP (every grid quantity, one kernel) of "
-                        "these kinds into the shipped model on every current training "
-                        "design, on its feature scaling, keeping its other GPs; a bending "
-                        "refit refits the strip-shear factor (also done by 'model')")
-    pa.add_argument("--kinds", nargs="+", metavar="KIND", default=["bending"])
+    helps = {
+        "signal": "fit the signal GP (a kernel of its own past the snap) of these kinds into "
+                  "the shipped model, keeping its other GPs (also done by 'model')",
+        "pressure": "fit the pressure GP (log P on the grid, designs stopped at their "
+                    "pressure limit as censored data) of these kinds into the shipped model "
+                    "on every current training design, keeping its other GPs; a bending "
+                    "refit refits the twisting kind that reads it, and the strip-shear "
+                    "factor (also done by 'model')",
+        "path": "fit the path GP (every grid quantity, one kernel) of these kinds into the "
+                "shipped model on every current training design, on its feature scaling, "
+                "keeping its other GPs; a bending refit refits the strip-shear factor (also "
+                "done by 'model')"}
+    for part, text in helps.items():
+        sub.add_parser(part, help=text).add_argument("--kinds", nargs="+", metavar="KIND",
+                                                     default=["bending"])
     args = ap.parse_args(argv)
-    if args.what == "path":
-        from multimorph.calibrated._fit import add_part
-        from multimorph.calibrated._model import straight_of
-
-        try:
-            add_part("path", tuple(args.kinds), straight_of=straight_of)
-        except ValueError as exc:
-            print(f"error: {exc}", file=sys.stderr)
-            return 2
-        if {"bending", "twisting"} & set(args.kinds):
-            fit_twist_shear()      # its rule reads the straight cell's calibrated path
-        return 0
-    if args.what == "pressure":
-        from multimorph.calibrated._fit import add_pressure, fit_and_save
-        from multimorph.calibrated._model import straight_of
-
-        try:
-            add_pressure(tuple(args.kinds), straight_of=straight_of)
-        except ValueError as exc:
-            print(f"error: {exc}", file=sys.stderr)
-            return 2
-        if "bending" in args.kinds and "twisting" not in args.kinds:
-            # the twisting kind's inputs are the bending kind's log P: refitted whole
-            fit_and_save(kinds=("twisting",), straight_of=straight_of)
-        if {"bending", "twisting"} & set(args.kinds):
-            fit_twist_shear()
-        return 0
-    if args.what == "signal":
-        from multimorph.calibrated._fit import add_signal
-
-        try:
-            add_signal(tuple(args.kinds))
-        except ValueError as exc:
-            print(f"error: {exc}", file=sys.stderr)
-            return 2
-        return 0
+    if args.what in helps:
+        return _refit_part(args.what, tuple(args.kinds))
     if args.what == "ritz-table":
         from multimorph.calibrated._ritz_table import build_ritz_table
 
