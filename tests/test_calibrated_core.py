@@ -324,6 +324,66 @@ def test_a_fit_with_censored_designs_learns_they_lie_above_their_bound() -> None
             assert e_cens.max() <= 1.05 * e_masked.max() + 1e-3
 
 
+def test_the_robust_likelihood_puts_an_outlier_at_its_limit() -> None:
+    """robust_noise: the leave-one-out residual of a design does not depend on its own
+    noise, and its leave-one-out variance grows by it; so the noise it gives an outlier
+    puts that design's z exactly at the limit (the others' noises held), and a design
+    inside the limit keeps its noise."""
+    from multimorph.calibrated._gp import matern52, robust_noise
+
+    rng = np.random.default_rng(5)
+    x = rng.uniform(0, 1, (60, 2))
+    r = 0.5 * np.sin(3 * x[:, 0]) + 0.03 * rng.standard_normal(60)
+    r[7] += 1.0
+    K = matern52(x, x, np.array([0.5, 0.5]))
+    noise = 9e-4
+
+    def loo_z(own: np.ndarray) -> np.ndarray:
+        inv = np.linalg.inv(K + np.diag(noise + own))
+        return (inv @ r) / np.sqrt(np.diag(inv))
+
+    own = robust_noise(K, noise, r, np.zeros(60), 3.0)
+    z0 = loo_z(np.zeros(60))
+    only7 = np.where(np.arange(60) == 7, own, 0.0)
+    assert abs(z0[7]) > 10.0 and abs(abs(loo_z(only7)[7]) - 3.0) < 1e-6
+    assert np.all(own[np.abs(z0) <= 3.0] == 0.0) and np.all(own[np.abs(z0) > 3.0] > 0.0)
+
+
+def test_a_robust_fit_is_not_pulled_by_labels_that_jump() -> None:
+    """A smooth response with a few labels read off another feature (Pc read at a second
+    excursion: far off its neighbours). The Gaussian fit bends towards them; the robust one
+    (``fit_gp(..., robust=3)``) weighs them down: its error on the true response near them
+    falls by a third or more, the designs it weighs down carry their own noise in its
+    variance, and on clean data it gives the plain fit."""
+    rng = np.random.default_rng(11)
+    n = 150
+    x = rng.uniform(0, 1, (n, 2))
+
+    def f(z: np.ndarray) -> np.ndarray:
+        return (np.sin(2.5 * z[:, 0]) + 0.5 * z[:, 1] ** 2)[:, None]
+
+    y = f(x) + 0.01 * rng.standard_normal((n, 1))
+    bad = rng.choice(n, 6, replace=False)
+    jumped = y.copy()
+    jumped[bad] += 0.6
+    near = np.vstack([x[b] + 0.03 * rng.standard_normal((10, 2)) for b in bad])
+    ones = np.ones((n, 1), bool)
+    plain = fit_gp(x, jumped, ones, restarts=1)
+    robust = fit_gp(x, jumped, ones, restarts=1, robust=3.0)
+    e_plain = np.abs(plain.predict(near) - f(near)).mean()
+    e_robust = np.abs(robust.predict(near) - f(near)).mean()
+    assert e_robust < 0.67 * e_plain
+    # the weighed-down designs carry their own noise in the variance factor
+    own = np.diag(robust.chol @ robust.chol.T) - 1.0 - robust.noise
+    assert set(np.flatnonzero(own > 1e-9)) >= set(bad)
+    clean_plain = fit_gp(x, y, ones, restarts=1)
+    clean_robust = fit_gp(x, y, ones, restarts=1, robust=3.0)
+    xt = rng.uniform(0, 1, (40, 2))
+    assert np.allclose(clean_robust.predict(xt), clean_plain.predict(xt), atol=0.02)
+    with pytest.raises(ValueError, match="robust needs one output"):
+        fit_gp(x, np.column_stack([y, y]), np.ones((n, 2), bool), robust=3.0)
+
+
 def test_a_design_stopped_at_its_pressure_limit_is_censored_past_its_end() -> None:
     """The FE path's stop reason at p_max is the one the training data read as censoring,
     and the bound covers exactly the grid volumes past such a design's end."""

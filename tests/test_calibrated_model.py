@@ -305,9 +305,9 @@ def test_where_the_anchor_and_the_path_disagree_the_band_and_the_cell_line_say_s
     assert "Pc uncertain for fingers " in words and "twister" not in words
 
 
-@pytest.mark.parametrize("part", ["signal", "pressure", "path"])
+@pytest.mark.parametrize("part", ["signal", "pressure", "path", "anchors"])
 def test_refitting_a_part_for_an_unknown_kind_is_refused_and_writes_nothing(part, capsys):
-    """`python -m multimorph.calibrated.fit signal|pressure|path --kinds K`: a kind the
+    """`python -m multimorph.calibrated.fit signal|pressure|path|anchors --kinds K`: a kind the
     shipped model does not have is an error naming it (exit 2), and the model files are
     left as they were."""
     from multimorph.calibrated._fit import MODEL_FILE, MODEL_MANIFEST

@@ -422,19 +422,17 @@ def add_signal(kinds: tuple[str, ...] = ("bending",)) -> dict[str, Any]:
     return add_part("signal", kinds)
 
 
-#: The GPs :func:`add_part` refits, and the fitting function of each (the path GP's arrays
-#: sit at the kind's own prefix, the others' under ``<part>/``).
-PARTS = {"signal": fit_signal, "pressure": fit_pressure, "path": fit_path}
 _GP_KEYS = ("x", "length", "noise", "mask", "weights", "coef", "scale", "chol")
 
 
 def add_part(part: str, kinds: tuple[str, ...] = ("bending",), *,
              straight_of: StraightOf | None = None) -> dict[str, Any]:
-    """Fit one GP of ``kinds`` (``part``: "signal", "pressure" or "path", :data:`PARTS`) into the
-    shipped model, both variants, on every current training design of the kind, on the
-    shipped kinds' boxes and feature scaling, keeping every other GP as it is; returns the
-    manifest entries written (``<kind>.<part>``). ``straight_of`` gives a twisting kind its
-    straight-cell features (as :func:`fit_and_save`)."""
+    """Fit one GP of ``kinds`` (``part``: "signal", "pressure", "path" or "anchors" (the Pc
+    and Ph GPs), :data:`PARTS`) into the shipped model, both variants, on every current
+    training design of the kind, on the shipped kinds' boxes and feature scaling, keeping
+    every other GP as it is; returns the manifest entries written (``<kind>.<part>``).
+    ``straight_of`` gives a twisting kind its straight-cell features (as
+    :func:`fit_and_save`)."""
     from multimorph._provenance import code_version
 
     if part not in PARTS:
@@ -467,11 +465,16 @@ def add_part(part: str, kinds: tuple[str, ...] = ("bending",), *,
             train = ~d.holdout & np.all(np.isfinite(kf), axis=1)
             gp = PARTS[part](d, box, np.asarray(arrays[f"{p}feature_mean"]),
                              np.asarray(arrays[f"{p}feature_std"]), train=train)
-            where = p if part == "path" else f"{p}{part}/"
-            arrays = {k: v for k, v in arrays.items() if not (
-                k.startswith(where) and (part != "path" or k[len(p):] in _GP_KEYS))}
-            arrays.update(gp.to_arrays(where))
-            if part == "signal":
+            gps = gp if part == "anchors" else {"": gp}
+            for name, g in gps.items():
+                where = (p if part == "path" else f"{p}anchor_{name}/" if part == "anchors"
+                         else f"{p}{part}/")
+                arrays = {k: v for k, v in arrays.items() if not (
+                    k.startswith(where) and (part != "path" or k[len(p):] in _GP_KEYS))}
+                arrays.update(g.to_arrays(where))
+            if part == "anchors":
+                info["anchors"] = _anchor_info(gps, d.kind)
+            elif part == "signal":
                 info["signal"] = _signal_info(int(train.sum()), gp)
             elif part == "pressure":
                 info["pressure_length_scales"] = gp.length.round(4).tolist()
@@ -492,6 +495,23 @@ def add_part(part: str, kinds: tuple[str, ...] = ("bending",), *,
     return out
 
 
+def _anchor_info(anchors: dict[str, MultiOutputGP], kind: str) -> dict[str, Any]:
+    """The manifest entry of a kind's anchors: per anchor its training designs, kernel and,
+    with a robust likelihood (:data:`ANCHOR_ROBUST`), its limit and how many designs it
+    weighs down."""
+    out: dict[str, Any] = {}
+    for name, agp in anchors.items():
+        entry: dict[str, Any] = {"training_designs": len(agp.x),
+                                 "length_scales": agp.length.round(4).tolist(),
+                                 "noise": agp.noise}
+        if kind in ANCHOR_ROBUST:
+            own = np.diag(agp.chol @ agp.chol.T) - 1.0 - agp.noise
+            entry["robust_limit"] = ANCHOR_ROBUST[kind]
+            entry["weighed_down"] = int(np.sum(own > 1e-9))
+        out[name] = entry
+    return out
+
+
 def _pressure_info(data: TrainingData, train: np.ndarray, gp: MultiOutputGP) -> dict[str, Any]:
     """The manifest entry of a kind's pressure GP."""
     censored = (np.zeros(len(train), bool) if data.censor is None
@@ -505,13 +525,22 @@ def _pressure_info(data: TrainingData, train: np.ndarray, gp: MultiOutputGP) -> 
 
 #: The anchors: FE pressures predicted on their own (see the module docstring).
 ANCHORS = ("pc", "ph")
+#: The anchors' robust likelihood (``_gp.fit_gp``'s ``robust``, per kind: the limit in
+#: leave-one-out standard deviations; a kind not named here fits a Gaussian one). Pc and Ph
+#: are read on each FE path by the shared definitions, and a reading can jump between
+#: neighbouring designs (a limit point against the steepest rise of a gradual knee, the
+#: first excursion of a cell that bends one way and back against its second): such a label
+#: lies far from its neighbours, and a Gaussian likelihood lets it pull them. Measured in
+#: stop 46 (docs/validation.md §2 item 5).
+ANCHOR_ROBUST: dict[str, float] = {"bending": 3.0}
 
 
 def fit_anchors(data: TrainingData, box: Box, fmean: np.ndarray, fstd: np.ndarray, *,
                 train: np.ndarray | None = None, restarts: int = 3,
                 ) -> dict[str, MultiOutputGP]:
     """One scalar GP per anchor (log Pc/μ, log Ph/μ of FE), each with its own kernel, on
-    the rows ``train`` (default: not held out) that have the anchor and finite features."""
+    the rows ``train`` (default: not held out) that have the anchor and finite features;
+    robust where :data:`ANCHOR_ROBUST` names the kind."""
     assert data.anchors is not None
     kf = data_features(data)
     ok = np.all(np.isfinite(kf), axis=1)
@@ -523,8 +552,16 @@ def fit_anchors(data: TrainingData, box: Box, fmean: np.ndarray, fstd: np.ndarra
         x = model_inputs(box, data.groups[rows], kf[rows], fmean, fstd,
                          None if end is None else end[rows])
         y = data.anchors[rows, j:j + 1]
-        out[name] = fit_gp(x, y, np.ones_like(y, bool), restarts=restarts)
+        out[name] = fit_gp(x, y, np.ones_like(y, bool), restarts=restarts,
+                           robust=ANCHOR_ROBUST.get(data.kind))
     return out
+
+
+#: The GPs :func:`add_part` refits, and the fitting function of each (the path GP's arrays
+#: sit at the kind's own prefix, the anchors' under ``anchor_<name>/``, the others' under
+#: ``<part>/``).
+PARTS: dict[str, Callable[..., Any]] = {"signal": fit_signal, "pressure": fit_pressure,
+                                        "path": fit_path, "anchors": fit_anchors}
 
 
 #: Outputs of a Ritz emulator: the four :data:`~._ritz.FEATURE_NAMES` and log(Pc/μ).
@@ -657,9 +694,7 @@ def _fit_one(kind: str, data: TrainingData, prefix: str, arrays: dict[str, np.nd
             + ("emulated" if prefix else "Ritz") + " strip-shear rule"),
         "end_input": ("plate 0, mirror 1; predicted at 1" if end_column(data) is not None
                       else None),
-        "anchors": {name: {"training_designs": len(agp.x),
-                           "length_scales": agp.length.round(4).tolist(), "noise": agp.noise}
-                    for name, agp in anchors.items()},
+        "anchors": _anchor_info(anchors, kind),
         "box": {n: [float(lo), float(hi)] for n, lo, hi in
                 zip(box.names, box.low, box.high, strict=True)}}
     _log(f"{kind}{' (fast)' if prefix else ''}: fitted on {int(train.sum())} designs")

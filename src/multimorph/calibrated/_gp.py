@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["MultiOutputGP", "censored_residuals", "fit_gp", "matern52"]
+__all__ = ["MultiOutputGP", "censored_residuals", "fit_gp", "matern52", "robust_noise"]
 
 
 def matern52(a: np.ndarray, b: np.ndarray, length: np.ndarray) -> np.ndarray:
@@ -182,10 +182,24 @@ def censored_residuals(K: np.ndarray, noise: float, resid: np.ndarray, mask: np.
     return resid, extra, imputed
 
 
+def robust_noise(K: np.ndarray, noise: float, resid: np.ndarray, own: np.ndarray,
+                 limit: float) -> np.ndarray:
+    """Each design's own noise for :func:`fit_gp`'s ``robust`` fit (the unit-amplitude
+    kernel matrix ``K``, the common ``noise``, residuals ``resid`` (n,), the designs' own
+    noises so far ``own``): where a design's leave-one-out residual is z > ``limit``
+    leave-one-out standard deviations from the others' prediction, its noise grows by
+    v ((z / limit)² − 1), v its leave-one-out variance, so that it lies at ``limit``."""
+    inv = np.linalg.inv(K + np.diag(noise + own))
+    d = np.diag(inv)
+    z = (inv @ resid) / np.sqrt(d)
+    return np.where(np.abs(z) > limit, own + ((z / limit) ** 2 - 1.0) / d, own)
+
+
 def fit_gp(x: np.ndarray, y: np.ndarray, mask: np.ndarray, *, fit_outputs: np.ndarray | None
            = None, ridge: float = 1e-3, restarts: int = 3, seed: int = 0,
            noise_bounds: tuple[float, float] = (1e-6, 1.0),
-           lower: np.ndarray | None = None) -> MultiOutputGP:
+           lower: np.ndarray | None = None, robust: float | None = None,
+           robust_passes: int = 3) -> MultiOutputGP:
     """Fit a :class:`MultiOutputGP` to inputs ``x`` (n, k) and outputs ``y`` (n, m) known
     where ``mask`` (n, m).
 
@@ -198,6 +212,12 @@ def fit_gp(x: np.ndarray, y: np.ndarray, mask: np.ndarray, *, fit_outputs: np.nd
     lie above it there (censored; :func:`censored_residuals`): the output is imputed and
     solved with the design too (the returned ``mask`` includes it). The kernel, the linear
     means and the scales are those of the observed outputs alone.
+
+    ``robust`` (one output, every design observed): a Huber-type likelihood. A design whose
+    leave-one-out residual lies more than ``robust`` standard deviations from the others'
+    prediction gets its own noise raised until it lies at ``robust`` (:func:`robust_noise`),
+    and the kernel is fitted again with those noises, ``robust_passes`` fits in all (the
+    first is the plain one). The predictive variance carries those noises.
     """
     from scipy.linalg import cho_factor, cho_solve
     from sklearn.gaussian_process import GaussianProcessRegressor
@@ -221,20 +241,30 @@ def fit_gp(x: np.ndarray, y: np.ndarray, mask: np.ndarray, *, fit_outputs: np.nd
         resid[sel, j] = r / scale[j]
     cols = np.arange(m) if fit_outputs is None else np.asarray(fit_outputs)
     rows = np.all(mask[:, cols], axis=1)
-    kernel = (ConstantKernel(1.0, (1e-3, 1e3))
-              * Matern(length_scale=np.ones(k), length_scale_bounds=(1e-2, 1e3), nu=2.5)
-              + WhiteKernel(min(max(1e-2, noise_bounds[0]), noise_bounds[1]), noise_bounds))
-    gpr = GaussianProcessRegressor(kernel, normalize_y=False, n_restarts_optimizer=restarts,
-                                   random_state=seed)
-    gpr.fit(x[rows], resid[np.ix_(rows, cols)])
-    kp = gpr.kernel_.get_params()
-    amp = float(kp["k1__k1__constant_value"])
-    length = np.asarray(kp["k1__k2__length_scale"], float) * np.ones(k)
-    noise = float(kp["k2__noise_level"]) / amp
+    if robust is not None and (m != 1 or not rows.all() or lower is not None):
+        raise ValueError("fit_gp: robust needs one output observed at every design")
+    # robust: each design's own noise (in units of the scaled residual's variance)
+    own = np.zeros(n)
+    for rpass in range(robust_passes if robust is not None else 1):
+        kernel = (ConstantKernel(1.0, (1e-3, 1e3))
+                  * Matern(length_scale=np.ones(k), length_scale_bounds=(1e-2, 1e3), nu=2.5)
+                  + WhiteKernel(min(max(1e-2, noise_bounds[0]), noise_bounds[1]),
+                                noise_bounds))
+        gpr = GaussianProcessRegressor(kernel, alpha=own[rows] + 1e-10, normalize_y=False,
+                                       n_restarts_optimizer=restarts, random_state=seed)
+        gpr.fit(x[rows], resid[np.ix_(rows, cols)])
+        kp = gpr.kernel_.get_params()
+        amp = float(kp["k1__k1__constant_value"])
+        length = np.asarray(kp["k1__k2__length_scale"], float) * np.ones(k)
+        noise = float(kp["k2__noise_level"]) / amp
+        K = matern52(x, x, length)
+        if robust is not None and rpass < robust_passes - 1:
+            own = amp * robust_noise(K, noise, resid[:, 0] / math.sqrt(amp), own / amp,
+                                     robust)
     scale = scale * math.sqrt(amp)
     resid = resid / math.sqrt(amp)
-    K = matern52(x, x, length)
     extra = np.zeros((n, m))
+    extra[:, 0] += own / amp
     if lower is not None:
         bound = (np.asarray(lower, float)
                  - np.column_stack([np.ones(n), x]) @ coef) / scale[None, :]
@@ -248,6 +278,6 @@ def fit_gp(x: np.ndarray, y: np.ndarray, mask: np.ndarray, *, fit_outputs: np.nd
             continue
         Ks = K[np.ix_(sel, sel)] + np.diag(noise + extra[sel, j])
         weights[sel, j] = cho_solve(cho_factor(Ks, lower=True), resid[sel, j])
-    chol = np.linalg.cholesky(K + noise * np.eye(n))
+    chol = np.linalg.cholesky(K + np.diag(noise + own / amp))
     return MultiOutputGP(x=x, length=length, noise=noise, mask=mask, weights=weights,
                          coef=coef, scale=scale, chol=chol)

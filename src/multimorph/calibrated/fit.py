@@ -6,6 +6,7 @@
     python -m multimorph.calibrated.fit signal [--kinds bending]       # the signal GP alone
     python -m multimorph.calibrated.fit pressure [--kinds bending]     # the pressure GP alone
     python -m multimorph.calibrated.fit path [--kinds bending]         # the path GP alone
+    python -m multimorph.calibrated.fit anchors [--kinds bending]      # the Pc and Ph GPs alone
 
 The FE reference data set comes first (``python -m multimorph.calibrated.build_dataset``).
 """
@@ -62,11 +63,11 @@ def fit_twist_shear(form: str = "volume") -> dict[str, Any]:
 
 
 def _refit_part(part: str, kinds: tuple[str, ...]) -> int:
-    """``fit signal|pressure|path``: one GP of ``kinds`` into the shipped model
-    (``_fit.add_part``), then what reads it: the twisting kind after a bending pressure
-    refit (its inputs are the bending kind's log P), the strip-shear factor after a
-    pressure or path refit of bending or twisting (its rule reads the straight cells'
-    calibrated paths)."""
+    """``fit signal|pressure|path|anchors``: one GP of ``kinds`` into the shipped model
+    (``_fit.add_part``), then what reads it: the twisting kind after a bending pressure or
+    anchor refit (its inputs are the bending kind's log P and its Pc anchor), the
+    strip-shear factor after a pressure, path or anchor refit of bending or twisting (its
+    rule reads the straight cells' calibrated paths and the tilted cells' anchors)."""
     from multimorph.calibrated._fit import add_part, fit_and_save
     from multimorph.calibrated._model import straight_of
 
@@ -75,7 +76,7 @@ def _refit_part(part: str, kinds: tuple[str, ...]) -> int:
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    if part == "pressure" and "bending" in kinds and "twisting" not in kinds:
+    if part in ("pressure", "anchors") and "bending" in kinds and "twisting" not in kinds:
         fit_and_save(kinds=("twisting",), straight_of=straight_of)
     if part != "signal" and {"bending", "twisting"} & set(kinds):
         fit_twist_shear()
@@ -113,7 +114,12 @@ def main(argv: list[str] | None = None) -> int:
         "path": "fit the path GP (every grid quantity, one kernel) of these kinds into the "
                 "shipped model on every current training design, on its feature scaling, "
                 "keeping its other GPs; a bending refit refits the strip-shear factor (also "
-                "done by 'model')"}
+                "done by 'model')",
+        "anchors": "fit the Pc and Ph GPs (the anchors; bending with a robust likelihood) "
+                   "of these kinds into the shipped model on every current training design, "
+                   "on its feature scaling, keeping its other GPs; a bending refit refits "
+                   "the twisting kind that reads it, and the strip-shear factor (also done "
+                   "by 'model')"}
     for part, text in helps.items():
         sub.add_parser(part, help=text).add_argument("--kinds", nargs="+", metavar="KIND",
                                                      default=["bending"])
