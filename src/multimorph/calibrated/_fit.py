@@ -505,7 +505,7 @@ def _anchor_info(anchors: dict[str, MultiOutputGP], kind: str) -> dict[str, Any]
                                  "length_scales": agp.length.round(4).tolist(),
                                  "noise": agp.noise}
         if kind in ANCHOR_ROBUST:
-            own = np.diag(agp.chol @ agp.chol.T) - 1.0 - agp.noise
+            own = np.sum(agp.chol ** 2, axis=1) - 1.0 - agp.noise  # diag(L Lᵀ) = 1 + noise + own
             entry["robust_limit"] = ANCHOR_ROBUST[kind]
             entry["weighed_down"] = int(np.sum(own > 1e-9))
         out[name] = entry

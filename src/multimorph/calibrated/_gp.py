@@ -112,6 +112,16 @@ def _linear(x: np.ndarray, y: np.ndarray, ridge: float) -> np.ndarray:
     return np.linalg.solve(A.T @ A + reg, A.T @ y)
 
 
+def _leave_one_out(A: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(A⁻¹ r, diag A⁻¹) for the covariance ``A`` of the residuals ``r``: the design i's
+    leave-one-out residual is (A⁻¹ r)_i / (A⁻¹)_ii and its leave-one-out variance
+    1 / (A⁻¹)_ii (Rasmussen & Williams, §5.4.2)."""
+    from scipy.linalg import cho_factor, cho_solve
+
+    c = cho_factor(A, lower=True)
+    return cho_solve(c, r), np.diag(cho_solve(c, np.eye(len(A))))
+
+
 #: Fewest designs with both outputs for the regression that continues a censored design.
 MIN_PAIRS = 30
 
@@ -133,7 +143,6 @@ def censored_residuals(K: np.ndarray, noise: float, resid: np.ndarray, mask: np.
     α = (bound − μ)/s, λ = φ(α)/(1 − Φ(α)).
     Returns (residuals with the imputed values, their variance (0 where observed), the
     mask of imputed entries)."""
-    from scipy.linalg import cho_factor, cho_solve
     from scipy.special import ndtr
 
     resid = np.array(resid, float)
@@ -150,9 +159,8 @@ def censored_residuals(K: np.ndarray, noise: float, resid: np.ndarray, mask: np.
         """(designs of output j, their weights, their leave-one-out errors (n,))"""
         if j not in cache:
             sel = np.flatnonzero(mask[:, j])
-            c = cho_factor(K[np.ix_(sel, sel)] + noise * np.eye(sel.size), lower=True)
-            alpha = cho_solve(c, resid[sel, j])
-            inv_diag = np.diag(cho_solve(c, np.eye(sel.size)))
+            alpha, inv_diag = _leave_one_out(K[np.ix_(sel, sel)] + noise * np.eye(sel.size),
+                                             resid[sel, j])
             loo = np.full(n, np.nan)
             loo[sel] = alpha / inv_diag
             cache[j] = (sel, alpha, loo)
@@ -189,9 +197,8 @@ def robust_noise(K: np.ndarray, noise: float, resid: np.ndarray, own: np.ndarray
     noises so far ``own``): where a design's leave-one-out residual is z > ``limit``
     leave-one-out standard deviations from the others' prediction, its noise grows by
     v ((z / limit)² − 1), v its leave-one-out variance, so that it lies at ``limit``."""
-    inv = np.linalg.inv(K + np.diag(noise + own))
-    d = np.diag(inv)
-    z = (inv @ resid) / np.sqrt(d)
+    alpha, d = _leave_one_out(K + np.diag(noise + own), resid)
+    z = alpha / np.sqrt(d)
     return np.where(np.abs(z) > limit, own + ((z / limit) ** 2 - 1.0) / d, own)
 
 
