@@ -484,6 +484,11 @@ def add_part(part: str, kinds: tuple[str, ...] = ("bending",), *,
                 info["length_scales"] = gp.length.round(4).tolist()
                 info["noise"] = gp.noise
                 info["path"] = {"training_designs": int(train.sum())}
+            # the sets the model has now seen, for the twin rule of the held-out checks
+            # (validate.unseen_designs): a part fitted on a set the kind's fit had not
+            # (bending3_mirror, stop 47) adds it
+            info["sets"] = list(dict.fromkeys([*info.get("sets", ()),
+                                               *map(str, d.set_name[train])]))
             out[f"{prefix}{kind}"] = info[part]
             _log(f"{kind}{' (fast)' if prefix else ''}: {part} GP on {int(train.sum())} "
                  "designs")
