@@ -74,7 +74,11 @@ def _signal(resp: Response) -> tuple[np.ndarray, np.ndarray]:
 #: (up to 9 %), where the anchor alone is smooth. Capped, a step it adds is at most 2σ, and
 #: the accuracy stays (cross-validation Pc 3.4 / 10.3 %, Ph 4.6 / 13.1 %; held out where
 #: both readings exist: Pc 2.7 / 9.9 %, Ph 3.3 / 7.7 %; never chose a fit: Pc 3.0 /
-#: 12.1 %, Ph 2.8 / 10.2 %). The same cap holds for stretching cells.
+#: 12.1 %, Ph 2.8 / 10.2 %). The same cap holds for stretching cells. Measured again at
+#: stop 48 (bending, 872 training designs; docs/validation.md §4 stop 48): uncapped, the
+#: 284 held-out mirror designs read Ph p90 8.7 % against 10.1 % (Pc 7.3 against 7.7 %),
+#: but over 696 wall sweeps of 232 cells it steps by up to 43 % (Ph) and 39 % (Pc)
+#: between designs 0.5 % apart, capped by up to 14 % and 6 %: kept.
 #:
 #: Bending cells (stop 45): 0.75 on both. The pressure and path GPs on every training design
 #: (docs/validation.md §2 item 3) made the path's own readings better, and the same
