@@ -255,6 +255,28 @@ def test_demo_copy_of_the_gripper_matches_the_example():
     assert packaged == (EXAMPLES / "gripper.toml").read_text("utf-8")
 
 
+def test_the_demo_quotes_the_validation_pages_held_out_figures():
+    """The demo says how far each calibrated variant is from FE (``_demo.HELD_OUT``); the
+    figures are docs/validation.md §3's pooled ones (metrics.json, the output of
+    ``python -m multimorph.calibrated.validate``), so a refit that moves them cannot leave
+    the demo quoting an older model's (stop 48: it quoted stop 41's 3.1 % bending median
+    against 1.3 %)."""
+    from multimorph.cli._demo import HELD_OUT, MODEL_DISTANCE
+
+    metrics = json.loads((EXAMPLES.parent / "docs" / "validation" / "metrics.json")
+                         .read_text("utf-8"))
+    pools = {"bending": "bending/mirror ends (the cell inside a module)",
+             "stretching": "stretching/mirror ends", "tilted": "twisting/held-out fifths"}
+    for model, kinds in HELD_OUT.items():
+        assert set(kinds) == set(pools)
+        for kind, quoted in kinds.items():
+            m = metrics[f"pooled/{pools[kind]}/{model}"]
+            want = tuple(round(100 * m[q][s], 1) for q in ("pc", "ph")
+                         for s in ("median", "p90"))
+            assert quoted == want, (model, kind)
+            assert f"{kind} cells {quoted[0]:.1f} % ({quoted[1]:.1f} %)" in MODEL_DISTANCE[model]
+
+
 def test_demo_runs_the_whole_chain(tmp_path, monkeypatch):
     import json
 
