@@ -52,6 +52,35 @@ def test_on_the_held_out_fe_designs_the_calibrated_model_is_far_closer_than_ritz
     assert cal_pc < ritz_pc / 4 and cal_ph < ritz_ph / 4
 
 
+def test_a_fast_path_is_not_cut_before_its_anchor_by_an_emulated_ritz_pc() -> None:
+    """The fast variant's data range is 0.85 × the emulated Ritz Pc; on
+    `bending_softbottom_mirror` #28 (held out) the emulator puts it at 8.7 kPa where the
+    Ritz model reads 42.1 kPa, which cut the path at V/V0 1.7, before its activation: it
+    read Pc 2.1 kPa (the cell's first bend the wrong way) against FE's 18.1 kPa, its
+    anchor (17.7 kPa) unused beyond the path. The range is at least
+    ``ANCHOR_RANGE_FACTOR`` × the Pc anchor (stop 48): the path reaches its anchors and
+    Pc is within a few per cent of FE, as the exact variant's is."""
+    from multimorph.calibrated._fit import fe_training_data
+    from multimorph.calibrated._model import ANCHOR_RANGE_FACTOR
+    from multimorph.calibrated._validate import fe_response
+    from multimorph.calibrated.validate import at_end_of, requested_pressure
+
+    name = "bending_softbottom_mirror"
+    data = fe_training_data("bending", set_names=(name,), ritz=False)
+    r = int(np.flatnonzero(data.design == 28)[0])
+    assert data.holdout[r]
+    model, _ = at_end_of(load_model(), "bending", name)
+    p_max = requested_pressure(name, 28, data.paths[r])
+    fe = fe_response(data.paths[r], data.cells[r], "bending").characteristic
+    resp = model.responses([data.cells[r]], p_max, fast=True)[0]
+    cal = resp.meta["calibration"]
+    assert cal["anchors"]["used"] == ["critical", "hardening"]
+    assert cal["data_pressure_end"] >= ANCHOR_RANGE_FACTOR * cal["anchors"][
+        "critical_pressure"] * (1 - 1e-12)
+    assert resp.characteristic.critical == pytest.approx(fe.critical, rel=0.05)
+    assert resp.characteristic.hardening == pytest.approx(fe.hardening, rel=0.05)
+
+
 def test_a_cell_outside_the_box_is_answered_by_ritz_and_says_which_groups() -> None:
     cell = CellGeometry.from_spec(load_toml(EXAMPLES / "cell.toml")["cell"])
     model = load_model()

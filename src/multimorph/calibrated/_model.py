@@ -47,7 +47,8 @@ from multimorph.errors import MultimorphError, SpecError
 from multimorph.geometry import CellGeometry, TiltedCell
 from multimorph.response import EquilibriumPath, Response, build_response
 
-__all__ = ["SUPPORT_CORRELATION", "CalibratedModel", "CalibrationWarning", "load_model"]
+__all__ = ["ANCHOR_RANGE_FACTOR", "SUPPORT_CORRELATION", "CalibratedModel", "CalibrationWarning",
+           "load_model"]
 
 #: A grid volume is supported for a design when some training design that reached it is
 #: this correlated with it (kernel value); beyond the last supported volume the predicted
@@ -57,6 +58,14 @@ SUPPORT_CORRELATION = 0.3
 #: set specs' ``pmax_factor``): the calibrated path ends there too (beyond it the model
 #: would extrapolate in pressure).
 DATA_PMAX_FACTOR = 0.85
+#: The fast variant estimates that data range from the *emulated* Ritz Pc, which on a few
+#: cells is far below the Ritz model's own (stop 48: `bending_softbottom_mirror` #28, 8.7
+#: against 42.1 kPa; `bending_lowjm_mirror` #45, 20.0 against 76.7 kPa), cutting the path
+#: before its activation (its anchors beyond the path, unused; the path's reading a wrong
+#: early one). The FE data reach 0.85 × the Ritz Pc, which is 1.7–2.9 × FE's Pc on the
+#: data set (the Ritz model is 2–3.4 × as stiff), so the fast path's data range is at
+#: least this multiple of the cell's Pc anchor.
+ANCHOR_RANGE_FACTOR = 1.7
 
 
 class CalibrationWarning(UserWarning):
@@ -396,6 +405,8 @@ class CalibratedModel:
         c = cell.cell if isinstance(cell, TiltedCell) else cell
         t_end = float(pred.t_end[r])
         p_data = float(pred.p_end[r])
+        if fast and pred.anchors is not None and math.isfinite(pred.anchors[r, 0]):
+            p_data = max(p_data, ANCHOR_RANGE_FACTOR * math.exp(pred.anchors[r, 0]) * c.mu)
         signal = {"bending": "curvature", "stretching": "axial_stretch",
                   "twisting": "twist_rate"}[pred.kind]
         shear: dict[str, Any] = {}

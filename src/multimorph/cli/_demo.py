@@ -35,8 +35,8 @@ GRIPPER_FILES = ("gripper.toml", "summary.json", "sequence.png", "shapes.png", "
 #: docs/validation/metrics.json, which ``python -m multimorph.calibrated.validate``
 #: rewrites, so a refit that moves them fails until they are updated here.
 HELD_OUT: dict[str, dict[str, tuple[float, float, float, float]]] = {
-    "calibrated-fast": {"bending": (1.3, 7.5, 1.8, 10.4), "stretching": (1.4, 5.3, 1.2, 3.4),
-                        "tilted": (5.6, 15.9, 7.0, 19.7)},
+    "calibrated-fast": {"bending": (1.2, 7.3, 1.8, 9.8), "stretching": (1.4, 5.3, 1.2, 3.4),
+                        "tilted": (5.5, 15.9, 7.0, 19.6)},
     "calibrated": {"bending": (1.2, 6.9, 2.0, 9.6), "stretching": (1.5, 5.3, 1.1, 3.3),
                    "tilted": (4.0, 14.8, 7.7, 17.9)}}
 
