@@ -8,7 +8,8 @@ the shared :class:`~multimorph.response.Response` (observed curves, Pc, Ph, fail
 ``backend = "calibrated"``.
 
 It knows its support: a cell whose groups lie outside the calibrated box, or whose wall is
-not in the data set's law family in a way it cannot place (see ``equivalent_jm``), is
+not in the data set's law family in a way it cannot place (see ``_law`` and
+``equivalent_jm``), is
 answered by the Ritz model with ``meta["calibration"]["inside"] = False`` and the groups
 that are outside, and a warning (:class:`CalibrationWarning`). Every prediction carries an
 uncertainty: the GP's predictive standard deviation of log P, turned into a range of Pc.
@@ -29,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from multimorph.calibrated._anchor import MAX_FACTOR, PATH_WEIGHT, anchored_characteristic
-from multimorph.calibrated._box import Box, cell_groups
+from multimorph.calibrated._box import Box, cell_groups, equivalent_jm
 from multimorph.calibrated._fit import (
     ANCHORS,
     FAMILY,
@@ -148,6 +149,8 @@ class CalibratedModel:
                                    float(info.get("signal", {}).get("weight", 1.0)))
         #: the tilted cells' calibrated strip-shear factor on the Ritz rule (``_shear``)
         self.twisting_shear: dict[str, Any] | None = manifest.get("twisting_shear")
+        #: how a wall of another law is placed (``_law``; None: the closest Gent wall)
+        self.law_map: dict[str, Any] | None = manifest.get("law_map")
         self.emulators = {fam: MultiOutputGP.from_arrays(arrays, f"emulator/{fam}/")
                           for fam in manifest.get("emulators", {})}
         self.emulator_boxes = {}
@@ -156,6 +159,22 @@ class CalibratedModel:
 
             self.emulator_boxes[fam] = Box.from_spec(fam, reference_spec(fam))
 
+    # ------------------------------------------------------------------ laws
+    def placed(self, cell: CellGeometry | TiltedCell
+               ) -> tuple[CellGeometry | TiltedCell, dict[str, Any] | None]:
+        """``cell`` as the model answers it — each non-Gent elastomer replaced by its
+        effective Gent wall where the law map places it (``_law``) — and how each
+        non-Gent elastomer was placed (None for Gent walls)."""
+        from multimorph.calibrated._law import effective_cell
+
+        out, info = effective_cell(cell, self.law_map)
+        c = out.cell if isinstance(out, TiltedCell) else out
+        if c.material.model != "gent":    # not placed by the map: its closest Gent Jm
+            info = {**(info or {}), "wall": {
+                "model": c.material.model, "rule": "closest Gent wall (uniaxial, λ ≤ 3)",
+                "mu_factor": 1.0, "effective_jm": equivalent_jm(c.material)}}
+        return out, info
+
     # ------------------------------------------------------------------ support
     def support(self, cell: CellGeometry | TiltedCell) -> dict[str, Any]:
         """``{"inside": bool, "kind": ..., "outside": {group: [value, low, high]}, "reason"}``."""
@@ -163,7 +182,7 @@ class CalibratedModel:
         if kind not in self.kinds:
             return {"inside": False, "kind": kind, "outside": {},
                     "reason": f"no calibration for {kind} cells yet"}
-        groups = cell_groups(cell)
+        groups = cell_groups(self.placed(cell)[0])
         out = self.kinds[kind].box.outside(groups)
         return {"inside": not out, "kind": kind,
                 "outside": {k: list(v) for k, v in out.items()},
@@ -240,6 +259,7 @@ class CalibratedModel:
             raise MultimorphError("calibrated model: grid() takes cells of one kind")
         kind = kinds.pop()
         k = (self.fast_kinds if fast else self.kinds)[kind]
+        cells = [self.placed(c)[0] for c in cells]
         gdicts = [cell_groups(c) for c in cells]
         groups = np.array([k.box.values_of(g) for g in gdicts])
         outside = [k.box.outside(g) for g in gdicts]
@@ -308,6 +328,9 @@ class CalibratedModel:
         p_max = float(p_max)
         if not (math.isfinite(p_max) and p_max > 0):
             raise SpecError(f"p_max must be a positive pressure, got {p_max!r} Pa")
+        given = list(cells)
+        placed = [self.placed(c) for c in given]
+        cells = [c for c, _ in placed]
         out: list[Response | Exception] = [MultimorphError("not evaluated")] * len(cells)
         by_kind: dict[str, list[int]] = {}
         for i, c in enumerate(cells):
@@ -315,13 +338,13 @@ class CalibratedModel:
         for kind, idx in by_kind.items():
             if kind == "twisting" and kind not in kinds:
                 for i, r in zip(idx, self.tilted_by_straight(
-                        [cells[i] for i in idx], p_max,  # type: ignore[misc]
+                        [given[i] for i in idx], p_max,  # type: ignore[misc]
                         fallback=fallback, fast=fast), strict=True):
                     out[i] = r
                 continue
             if kind not in kinds:
                 for i in idx:
-                    out[i] = self._fallback(cells[i], p_max, {
+                    out[i] = self._fallback(given[i], p_max, {
                         "inside": False, "kind": kind, "outside": {},
                         "reason": f"no calibration for {kind} cells"}, fallback)
                 continue
@@ -335,25 +358,50 @@ class CalibratedModel:
                 # calibrated answer (itself the Ritz model's outside the bending kind's)
                 rest = [i for r, i in enumerate(idx) if not pred.inside[r]]
                 for i, res in zip(rest, self.tilted_by_straight(
-                        [cells[i] for i in rest], p_max,  # type: ignore[misc]
+                        [given[i] for i in rest], p_max,  # type: ignore[misc]
                         fallback=fallback, fast=fast), strict=True):
                     out[i] = res
             for r, i in enumerate(idx):
                 if not pred.inside[r] and kind == "twisting":
                     continue
                 if not pred.inside[r]:
-                    sup = self.support(cells[i])
+                    sup = self.support(given[i])
                     if sup["inside"]:  # in the box, but without Ritz features
                         sup = {**sup, "inside": False, "reason": (
                             "its Ritz path does not reach the volumes the model's features "
                             "are read at")}
-                    out[i] = self._fallback(cells[i], p_max, sup, fallback)
+                    out[i] = self._fallback(given[i], p_max, sup, fallback)
                     continue
                 try:
-                    out[i] = self._response(cells[i], pred, r, p_max, paths[r], fast)
+                    res = self._response(cells[i], pred, r, p_max, paths[r], fast)
                 except Exception as exc:  # kept per design, as other batch models do
                     out[i] = exc
+                    continue
+                law = placed[i][1]
+                if law is not None:       # reported against the wall's own μ
+                    g = given[i].cell if isinstance(given[i], TiltedCell) else given[i]
+                    res = replace(res, shear_modulus=g.mu).with_meta(
+                        calibration=self._law_bands(res, law))
+                out[i] = res
         return out
+
+    def _law_bands(self, res: Response, law: dict[str, Any]) -> dict[str, Any]:
+        """``res``'s calibration record with how its walls were placed (``law``) and, for
+        a wall the law map placed, its Pc and Ph bands widened by the map's own spread
+        (``law_map["spread"]``: the GP's σ knows Gent walls only)."""
+        from multimorph.calibrated._law import widen_band
+
+        cal = {**res.meta["calibration"], "law": law}
+        spread = (self.law_map or {}).get("spread") or {}
+        mapped = any(w.get("rule") == "yeoh-shape map" for w in law.values())
+        if mapped:
+            ch = res.characteristic
+            for key, value, name in (("critical_pressure_range", ch.critical, "pc"),
+                                     ("hardening_pressure_range", ch.hardening, "ph")):
+                sigma = float(spread.get(f"sigma_log_{name}", math.nan))
+                if math.isfinite(sigma) and cal.get(key):
+                    cal[key] = widen_band(value, list(cal[key]), sigma)
+        return cal
 
     def tilted_by_straight(self, cells: Sequence[TiltedCell], p_max: float, *,
                            fallback: bool = True, fast: bool = False,
@@ -370,8 +418,8 @@ class CalibratedModel:
 
         straight = plate_level(self).responses([c.cell for c in cells], p_max,
                                                fallback=fallback, fast=fast)
-        return [r if isinstance(r, Exception) else _straight_for_tilted(r, c,
-                                                                        self.twisting_shear)
+        return [r if isinstance(r, Exception) else _straight_for_tilted(
+                    r, c, self.twisting_shear, cell_groups(self.placed(c)[0]))
                 for c, r in zip(cells, straight, strict=True)]
 
     def response(self, cell: CellGeometry | TiltedCell, p_max: float) -> Response:
@@ -543,7 +591,8 @@ def _weighted_shear(path: EquilibriumPath, sigma_rule: float, y_t: np.ndarray,
 
 
 def _straight_for_tilted(r: Response, cell: TiltedCell,
-                         shear_fit: dict[str, Any] | None = None) -> Response:
+                         shear_fit: dict[str, Any] | None = None,
+                         groups: dict[str, float] | None = None) -> Response:
     """A straight cell's response standing for its tilted cell (see :meth:`responses`):
     the same path, read on the strip shear — by the volume law of the path's chamber volume
     where the fit has it as its form (``shear_fit["form"] == "volume"``, :mod:`._shear`),
@@ -558,7 +607,8 @@ def _straight_for_tilted(r: Response, cell: TiltedCell,
 
     c = cell.cell
     path = r.path
-    groups = cell_groups(cell)
+    if groups is None:  # the cell's groups as the model places it (``placed``)
+        groups = cell_groups(cell)
     cal = dict(r.meta.get("calibration") or {})
     law = (shear_fit or {}).get("volume_law") if (shear_fit or {}).get("form") == "volume" \
         else None

@@ -7,6 +7,7 @@
     python -m multimorph.calibrated.fit pressure [--kinds bending]     # the pressure GP alone
     python -m multimorph.calibrated.fit path [--kinds bending]         # the path GP alone
     python -m multimorph.calibrated.fit anchors [--kinds bending]      # the Pc and Ph GPs alone
+    python -m multimorph.calibrated.fit law-map                        # how Yeoh walls are placed
 
 The FE reference data set comes first (``python -m multimorph.calibrated.build_dataset``).
 """
@@ -62,6 +63,41 @@ def fit_twist_shear(form: str = "volume") -> dict[str, Any]:
     return fit
 
 
+def fit_law_map_into_model(fast: bool = True) -> dict[str, Any] | None:
+    """Fit how a wall of another law is placed (:mod:`._law`: the effective Gent wall of a
+    Yeoh-like wall, on the training designs of ``yeoh2_mirror`` against the shipped
+    bending kind) and write it into the model's manifest (``law_map``); returns it (None
+    where the data set has no such set)."""
+    from multimorph.calibrated._dataset import load_reference
+    from multimorph.calibrated._fit import MODEL_MANIFEST
+    from multimorph.calibrated._law import LAW_MAP_SET
+    from multimorph.calibrated._law_fit import fit_law_map, law_map_costs, law_map_spread
+    from multimorph.calibrated._model import load_model
+
+    if LAW_MAP_SET not in load_reference():
+        return None
+    load_model.cache_clear()
+    model = load_model()
+    model.law_map = None
+    fit = fit_law_map(law_map_costs(model, fast=fast))
+    fit["variant"] = "calibrated-fast" if fast else "calibrated"
+    model.law_map = fit
+    fit["spread"] = law_map_spread(model, fast=fast)
+    manifest = json.loads(MODEL_MANIFEST.read_text())
+    manifest["law_map"] = fit
+    MODEL_MANIFEST.write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
+    load_model.cache_clear()
+    print(f"[calibrate] law map on {fit['training_designs']} Yeoh-walled designs "
+          f"(c20/c10 {fit['shape_range'][0]:.3g}-{fit['shape_range'][1]:.3g}): ln s = "
+          f"{fit['log_mu_factor'][0]:.3f} + {fit['log_mu_factor'][1]:.3f} ln k, ln Jm = "
+          f"{fit['log_jm'][0]:.3f} + {fit['log_jm'][1]:.3f} ln k; cost median "
+          f"{fit['cost']['median']:.3f} (each design's own best "
+          f"{fit['cost']['each_design_own_best_median']:.3f}); spread of log Pc, log Ph on "
+          f"them {fit['spread']['sigma_log_pc']:.3f}, {fit['spread']['sigma_log_ph']:.3f}",
+          file=sys.stderr, flush=True)
+    return fit
+
+
 def _refit_part(part: str, kinds: tuple[str, ...]) -> int:
     """``fit signal|pressure|path|anchors``: one GP of ``kinds`` into the shipped model
     (``_fit.add_part``), then what reads it: the twisting kind after a bending pressure or
@@ -80,6 +116,8 @@ def _refit_part(part: str, kinds: tuple[str, ...]) -> int:
         fit_and_save(kinds=("twisting",), straight_of=straight_of)
     if part != "signal" and {"bending", "twisting"} & set(kinds):
         fit_twist_shear()
+    if "bending" in kinds:
+        fit_law_map_into_model()
     return 0
 
 
@@ -123,9 +161,14 @@ def main(argv: list[str] | None = None) -> int:
     for part, text in helps.items():
         sub.add_parser(part, help=text).add_argument("--kinds", nargs="+", metavar="KIND",
                                                      default=["bending"])
+    sub.add_parser("law-map", help="fit how a wall of another law (Yeoh-like) is placed in "
+                   "the model, on the Yeoh-walled FE cells of yeoh2_mirror against the "
+                   "shipped bending kind (also done by 'model' and every bending refit)")
     args = ap.parse_args(argv)
     if args.what in helps:
         return _refit_part(args.what, tuple(args.kinds))
+    if args.what == "law-map":
+        return 0 if fit_law_map_into_model() is not None else 2
     if args.what == "ritz-table":
         from multimorph.calibrated._ritz_table import build_ritz_table
 
@@ -147,6 +190,8 @@ def main(argv: list[str] | None = None) -> int:
     # refit of other kinds alone keeps it (stop 37: `--kinds stretching` had refitted it)
     if not args.kinds or {"bending", "twisting"} & set(args.kinds):
         fit_twist_shear()
+    if not args.kinds or "bending" in args.kinds:
+        fit_law_map_into_model()
     return 0
 
 

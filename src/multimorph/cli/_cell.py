@@ -74,6 +74,21 @@ def _disagreement(anchors: dict[str, Any]) -> str:
             "the two disagree, so Pc is uncertain here")
 
 
+def _law_note(law: dict[str, Any] | None) -> str:
+    """How a wall of another law than Gent was placed in the calibrated model
+    (``calibration.law``, :mod:`multimorph.calibrated._law`)."""
+    wall = (law or {}).get("wall")
+    if not wall:
+        return ""
+    if wall.get("rule") == "yeoh-shape map":
+        return (f"; its {wall['model']} wall (c20/c10 {wall['shape_c20_c10']:.3g}) answered "
+                f"as a Gent wall of {wall['mu_factor']:.3g} × its μ and Jm "
+                f"{wall['effective_jm']:.3g} (the law map fitted on FE of Yeoh-walled cells; "
+                "docs/validation.md §2, Other laws)")
+    return (f"; its {wall['model']} wall answered as the closest Gent wall (Jm "
+            f"{wall['effective_jm']:.3g}): a law the model was not calibrated on")
+
+
 def model_line(data: dict[str, Any]) -> str:
     """Which model produced a cell result, and how far that model is from 3D FE."""
     name = data.get("model", data.get("backend"))
@@ -83,6 +98,7 @@ def model_line(data: dict[str, Any]) -> str:
         band = (f"; Pc within {lo / 1e3:.3g} … {hi / 1e3:.3g} kPa (±1σ)"
                 if lo is not None and hi is not None else "")
         band += _disagreement(cal.get("anchors") or {})
+        band += _law_note(cal.get("law"))
         how = ("Ritz corrected against 3D FE" if name == "calibrated" else
                "Ritz corrected against 3D FE, on emulated Ritz features")
         return f"{name} ({how}; held-out error in docs/validation.md){band}"

@@ -1,0 +1,132 @@
+"""How a wall of another law is placed in the Gent-calibrated model (stop 49).
+
+The calibrated model learned Gent walls. A wall of another law enters as an *effective
+Gent wall*: since stop 49 a Yeoh-like wall (any law whose uniaxial curve a Yeoh law
+carries: Yeoh, reduced polynomial, Mooney-Rivlin with a stiffening curve) is placed by a
+mapping calibrated on FE of Yeoh-walled cells (the ``yeoh2_mirror`` set), an implicit
+space mapping of the law:
+
+* the law's **shape** ``k`` is the c20/c10 of the Yeoh law (c10 = μ/2, c30 = 0) closest to
+  its uniaxial nominal stress over λ ∈ [1.05, 3] (relative least squares, closed form): a
+  Yeoh wall's own c20/c10 (c30 = 0), how fast the wall's modulus rises with I1;
+* its effective Gent wall has μ_eff = s(k) μ and Jm_eff(k), ln s and ln Jm_eff linear in
+  ln k, fitted so that the calibrated model of the effective cell reproduces the FE of the
+  Yeoh cells (Pc, Ph and the curve as a graph; :mod:`._law_fit`).
+
+Why not the Gent law closest to the wall's stress curve (``_box.equivalent_jm``, the
+placement until stop 48): the cell's Pc is set by moderate strains and its curve past Pc
+by large ones, and no one Gent curve of the wall's μ matches a Yeoh curve at both. On the
+`yeoh` sets the closest Gent (λ ≤ 3) read Pc well and the curves 25-38 % off as graphs
+(the Gent wall locks, the Yeoh wall does not); fitted to λ ≤ 4 or equibiaxially, the
+curves came closer and Pc went 7-10 % off (docs/validation.md §4, stop 49). A wall whose
+shape lies outside the mapping's calibrated range (neo-Hooke k = 0, an Ogden rubber)
+keeps the closest-Gent placement (and is answered by the Ritz model where that Jm is
+outside the box).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from multimorph.geometry import CellGeometry, TiltedCell
+
+__all__ = ["LAW_MAP_SET", "SHAPE_STRETCH", "effective_cell", "effective_material",
+           "law_shape", "widen_band"]
+
+#: The FE set the mapping is calibrated on (its training designs; the held-out fifth
+#: checks it, with the `yeoh` sets).
+LAW_MAP_SET = "yeoh2_mirror"
+#: The uniaxial stretches over which a law's shape is read.
+SHAPE_STRETCH = (1.05, 3.0)
+#: Relative tolerance on the mapping's calibrated range of k (as ``_box.EDGE_RTOL``).
+SHAPE_RTOL = 0.02
+
+
+def law_shape(material: Any) -> float:
+    """c20/c10 of the Yeoh law (c10 = μ/2, c30 = 0) nearest to ``material``'s uniaxial
+    nominal stress over :data:`SHAPE_STRETCH` (relative least squares); a Yeoh wall with
+    c30 = 0 gives its own c20/c10. NaN where the law's curve cannot be read."""
+    if material.model == "yeoh" and not material.params.get("c30", 0.0):
+        return float(material.params["c20"]) / float(material.params["c10"])
+    lam = np.linspace(*SHAPE_STRETCH, 60)
+    try:
+        s = np.asarray(material.nominal_stress("uniaxial", lam), float)
+    except Exception:  # a law locking inside the range: no Yeoh shape
+        return math.nan
+    c10 = 0.5 * material.shear_modulus
+    x = lam ** 2 + 2.0 / lam - 3.0
+    w1 = s / (2.0 * (lam - lam ** -2))        # the law's dW/dI1 along the curve (I1 laws)
+    if not (np.all(np.isfinite(w1)) and np.all(w1 > 0) and c10 > 0):
+        return math.nan
+    a = 2.0 * x / w1
+    b = (w1 - c10) / w1
+    return float(np.dot(a, b) / np.dot(a, a)) / c10
+
+
+def effective_material(material: Any, law_map: dict[str, Any] | None
+                       ) -> tuple[Any, dict[str, Any] | None]:
+    """The effective Gent wall of ``material`` and how it was placed (None for a Gent
+    wall, which is itself). Without a mapping, or with a shape outside its range: None
+    (the caller keeps the closest-Gent placement, ``_box.equivalent_jm``)."""
+    if material.model == "gent" or not law_map:
+        return material, None
+    k = law_shape(material)
+    lo, hi = law_map["shape_range"]
+    if not (math.isfinite(k) and lo * (1 - SHAPE_RTOL) <= k <= hi * (1 + SHAPE_RTOL)):
+        return material, None
+    from multimorph.materials import Material
+
+    lk = math.log(k)
+    # held to the walls the fit searched (as it read them: ``_law_fit.fit_law_map``)
+    s = float(np.clip(math.exp(law_map["log_mu_factor"][0] + law_map["log_mu_factor"][1] * lk),
+                      SEARCH_MU_FACTOR[0], SEARCH_MU_FACTOR[-1]))
+    jm = float(np.clip(math.exp(law_map["log_jm"][0] + law_map["log_jm"][1] * lk),
+                       SEARCH_JM[0], SEARCH_JM[-1]))
+    eff = Material("gent", {"mu": material.shear_modulus * s, "jm": jm},
+                   name=f"{material.name or material.model} (effective Gent wall)",
+                   break_stretch=material.break_stretch, density=material.density)
+    return eff, {"model": material.model, "shape_c20_c10": k, "mu_factor": s,
+                 "effective_jm": jm, "rule": "yeoh-shape map",
+                 "calibrated_on": law_map.get("set", LAW_MAP_SET)}
+
+
+def effective_cell(cell: CellGeometry | TiltedCell, law_map: dict[str, Any] | None
+                   ) -> tuple[CellGeometry | TiltedCell, dict[str, Any] | None]:
+    """``cell`` with each non-Gent elastomer replaced by its effective Gent wall (itself
+    and None where nothing is replaced)."""
+    c = cell.cell if isinstance(cell, TiltedCell) else cell
+    wall, info = effective_material(c.material, law_map)
+    bottom, binfo = (effective_material(c.bottom_material, law_map)
+                     if c.bottom_material is not None else (None, None))
+    if info is None and binfo is None:
+        return cell, None
+    if c.bottom_material is not None and c.bottom_material == c.material:
+        bottom = wall                      # one elastomer stays one elastomer
+    placed = replace(c, material=wall, bottom_material=bottom)
+    out: dict[str, Any] = {"wall": info} if info is not None else {}
+    if binfo is not None:
+        out["bottom"] = binfo
+    return (replace(cell, cell=placed) if isinstance(cell, TiltedCell) else placed), out
+
+
+# ------------------------------------------------ the walls the map may give (``_law_fit``)
+#: The effective walls searched per training design: μ factor and Gent Jm (the box's).
+SEARCH_MU_FACTOR = np.geomspace(0.7, 1.6, 19)
+SEARCH_JM = np.geomspace(9.0, 80.0, 19)
+#: The cost of a Pc or Ph one side has and the other lacks although its path got there.
+ONE_SIDED_COST = 0.1
+
+
+def widen_band(value: float | None, band: list[float | None], sigma: float
+               ) -> list[float | None]:
+    """``band`` (a ±1σ range around ``value``) widened by ``sigma`` of log P in quadrature."""
+    lo, hi = band
+    if value is None or lo is None or hi is None or not (sigma > 0 and value > 0):
+        return band
+    s_lo = math.hypot(math.log(value / lo), sigma) if lo > 0 else sigma
+    s_hi = math.hypot(math.log(hi / value), sigma) if hi > 0 else sigma
+    return [value * math.exp(-s_lo), value * math.exp(s_hi)]
