@@ -53,3 +53,26 @@ def test_symmetric_cells_compare_on_the_axial_stretch() -> None:
     assert 0.5 < c.stretch_rel_max <= 1.0
     d = c.to_dict()
     assert d["signal"] == "axial_stretch" and len(d["axial_stretch"]["rom"]) == len(c.pressure)
+
+
+def test_an_fe_cell_is_compared_on_its_end_rotation_as_the_cell_models_define_kappa() -> None:
+    """An FE cell records its end face's rotation and the circle fit of its bottom edge,
+    which bends about half as much (0.44-0.48 on the examples' cells); the cell models'
+    κd is the end rotation per cell, so κ(P) is compared on it (Pc, Ph stay each side's)."""
+    from multimorph.fe.analyses._compare import bend_curvature
+
+    model = _response(1.0, "calibrated")
+    P = np.linspace(0.0, 1.0, 201)
+    k = np.tanh((P - 0.5) / 0.08) + np.tanh(0.5 / 0.08)
+    z = np.zeros_like(P)
+    path = EquilibriumPath(pressure=P, curvature=0.46 * k, twist_rate=z, axial_stretch=z + 1,
+                           volume=1 + P, peak_stretch=1 + P, stable=np.ones_like(P, bool),
+                           extra={"bend_angle": k * 0.02})
+    fe = build_response(path, length=0.02, shear_modulus=1.0, backend="fe")
+    assert bend_curvature(fe)[1] == "end rotation / length"
+    assert bend_curvature(model)[1] == "curvature"
+    c = compare_responses(model, fe)
+    assert c.kappa_rel_max == pytest.approx(0.0, abs=1e-9)     # the same end rotation
+    assert c.pc_rel == pytest.approx(0.0, abs=1e-9)
+    assert c.to_dict()["kappa"]["measure"] == {"rom": "curvature",
+                                               "fe": "end rotation / length"}

@@ -21,9 +21,20 @@ from multimorph.fe.engine import FESettings
 from multimorph.geometry import CellGeometry
 from multimorph.response import Response
 
-__all__ = ["Comparison", "RomComparison", "ShearComparison", "compare_cell",
-           "compare_cell_run", "compare_device", "compare_responses", "compare_shear",
-           "compare_shear_responses", "compare_twisting", "model_label"]
+__all__ = [
+    "Comparison",
+    "RomComparison",
+    "ShearComparison",
+    "bend_curvature",
+    "compare_cell",
+    "compare_cell_run",
+    "compare_device",
+    "compare_responses",
+    "compare_shear",
+    "compare_shear_responses",
+    "compare_twisting",
+    "model_label",
+]
 
 
 def _rel(a: float | None, b: float | None) -> float | None:
@@ -45,7 +56,9 @@ class Comparison:
     pressure : ndarray
         Common pressures of the κ comparison (Pa), within both observed loading curves.
     kappa_rom, kappa_fe : ndarray
-        Curvature (1/m) on the observed loading curves at ``pressure``.
+        Curvature (1/m) on the observed loading curves at ``pressure``: the end rotation
+        over the length where the response records one (an FE run; what the cell models'
+        κ is), else the response's own curvature (:func:`bend_curvature`).
     kappa_rel_max : float or None
         Largest |κ_rom − κ_fe| relative to the largest |κ_fe| on the common range.
     signal : str
@@ -72,13 +85,16 @@ class Comparison:
     stretch_rom: np.ndarray = field(default_factory=lambda: np.zeros(0))
     stretch_fe: np.ndarray = field(default_factory=lambda: np.zeros(0))
     stretch_rel_max: float | None = None
+    #: what κ is on each side (:func:`bend_curvature`)
+    kappa_measure: dict[str, str] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         return {
             "critical_pressure": {"rom": self.pc_rom, "fe": self.pc_fe, "rel": self.pc_rel},
             "hardening_pressure": {"rom": self.ph_rom, "fe": self.ph_fe, "rel": self.ph_rel},
             "kappa": {"pressure": self.pressure.tolist(), "rom": self.kappa_rom.tolist(),
-                      "fe": self.kappa_fe.tolist(), "rel_max": self.kappa_rel_max},
+                      "fe": self.kappa_fe.tolist(), "rel_max": self.kappa_rel_max,
+                      "measure": self.kappa_measure},
             "signal": self.signal,
             "axial_stretch": {"pressure": self.pressure.tolist(),
                               "rom": self.stretch_rom.tolist(), "fe": self.stretch_fe.tolist(),
@@ -131,14 +147,31 @@ def _rom_cell_model() -> Any:
     return simulate_cell
 
 
+def bend_curvature(response: Response) -> tuple[np.ndarray, str]:
+    """The curvature of a response's observed loading curve as the cell models define it:
+    its end rotation over its length where the path records one (an FE cell or module:
+    ``extra["bend_angle"]``; the cell models' κd is the end rotation per cell, what their
+    FE data measure), else its own curvature (an FE cell's is the circle fit of its
+    bottom edge, which bends about half as much as the end face turns: the examples' cells
+    0.44-0.48 of it). Returns the curvature (1/m) and which measure it is."""
+    lo = response.loading
+    bend = (lo.extra or {}).get("bend_angle")
+    if bend is not None and response.length > 0 and len(bend) == len(lo.pressure):
+        return np.asarray(bend, float) / response.length, "end rotation / length"
+    return np.asarray(lo.curvature, float), "curvature"
+
+
 def compare_responses(rom: Response, fe: Response, n: int = 25) -> Comparison:
-    """Compare two responses of the same cell (any two backends)."""
+    """Compare two responses of the same cell (any two backends); κ(P) on the end rotation
+    where a response records one (:func:`bend_curvature`; Pc and Ph stay each response's
+    own)."""
     cr, cf = rom.characteristic, fe.characteristic
     lr, lf = rom.loading, fe.loading
     hi = min(float(np.max(lr.pressure)), float(np.max(lf.pressure)))
     P = np.linspace(0.0, hi, n)
-    kr = np.interp(P, lr.pressure, lr.curvature)
-    kf = np.interp(P, lf.pressure, lf.curvature)
+    (kr_path, kr_how), (kf_path, kf_how) = bend_curvature(rom), bend_curvature(fe)
+    kr = np.interp(P, lr.pressure, kr_path)
+    kf = np.interp(P, lf.pressure, kf_path)
     scale = float(np.max(np.abs(kf))) if len(kf) else 0.0
     krel = float(np.max(np.abs(kr - kf)) / scale) if scale > 0 else None
     sr = np.interp(P, lr.pressure, lr.axial_stretch)
@@ -148,7 +181,7 @@ def compare_responses(rom: Response, fe: Response, n: int = 25) -> Comparison:
     return Comparison(cr.critical, cf.critical, cr.hardening, cf.hardening,
                       _rel(cr.critical, cf.critical), _rel(cr.hardening, cf.hardening),
                       P, kr, kf, krel, signal=cr.signal, stretch_rom=sr, stretch_fe=sf,
-                      stretch_rel_max=srel)
+                      stretch_rel_max=srel, kappa_measure={"rom": kr_how, "fe": kf_how})
 
 
 def compare_cell(geometry: CellGeometry, p_max: float, fe_settings: Any = None,
