@@ -51,6 +51,8 @@ CHECKS = (("bending", "bending"), ("bending", "bending_narrow"), ("bending", "be
           ("bending", "bending2_mirror"), ("bending", "bending_lowjm_mirror"),
           ("stretching", "stretching_mirror"), ("stretching", "stretching_narrow_mirror"),
           ("stretching", "stretching2_mirror"),
+          # Yeoh walls on stretching cells (stop 49): the law map, fitted on bending cells
+          ("stretching", "yeoh_stretching_mirror"),
           ("twisting", "twisting"), ("twisting", "twisting2"), ("twisting", "twisting_narrow"),
           ("twisting", "twisting3"))
 
