@@ -61,13 +61,10 @@ def design_costs(model: Any, cell: CellGeometry, fe: Any, p_max: float, *,
     return J.reshape(len(SEARCH_MU_FACTOR), len(SEARCH_JM))
 
 
-def law_map_costs(model: Any = None, *, fast: bool = True, holdout: bool = False,
-                  set_name: str = LAW_MAP_SET) -> dict[str, Any]:
-    """:func:`design_costs` of every training design of ``set_name`` (the held-out fifth
-    with ``holdout``): ``{"design", "shape", "cost" (n, S, J)}``."""
-    import warnings
-
-    from multimorph.calibrated import CalibrationWarning
+def _fe_designs(model: Any, set_name: str, holdout: bool) -> Any:
+    """``(model at the set's end level, rows)``: per training design of ``set_name`` (the
+    held-out ones with ``holdout``) its design index, cell, FE response and the pressure
+    its FE run was asked for; and the shapes of all its designs."""
     from multimorph.calibrated._fit import fe_training_data
     from multimorph.calibrated._model import load_model
     from multimorph.calibrated._validate import fe_response
@@ -75,19 +72,29 @@ def law_map_costs(model: Any = None, *, fast: bool = True, holdout: bool = False
 
     data = fe_training_data("bending", set_names=(set_name,), ritz=False)
     model, _ = at_end_of(model or load_model(), "bending", set_name)
-    rows = [r for r in range(len(data.cells)) if bool(data.holdout[r]) == holdout]
-    costs, shapes, designs = [], [], []
-    for r in rows:
-        cell = data.cells[r]
-        fe = fe_response(data.paths[r], cell, "bending")
-        p = requested_pressure(set_name, int(data.design[r]), data.paths[r])
+    rows = [(int(data.design[r]), data.cells[r], fe_response(data.paths[r], data.cells[r],
+                                                             "bending"),
+             requested_pressure(set_name, int(data.design[r]), data.paths[r]))
+            for r in range(len(data.cells)) if bool(data.holdout[r]) == holdout]
+    return model, rows, [law_shape(c.material) for c in data.cells]
+
+
+def law_map_costs(model: Any = None, *, fast: bool = True, holdout: bool = False,
+                  set_name: str = LAW_MAP_SET) -> dict[str, Any]:
+    """:func:`design_costs` of every training design of ``set_name`` (the held-out fifth
+    with ``holdout``): ``{"design", "shape", "cost" (n, S, J)}``."""
+    import warnings
+
+    from multimorph.calibrated import CalibrationWarning
+
+    model, rows, every = _fe_designs(model, set_name, holdout)
+    costs = []
+    for _, cell, fe, p in rows:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", CalibrationWarning)
             costs.append(design_costs(model, cell, fe, p, fast=fast))
-        shapes.append(law_shape(cell.material))
-        designs.append(int(data.design[r]))
-    every = [law_shape(c.material) for c in data.cells]
-    return {"design": np.array(designs), "shape": np.array(shapes),
+    return {"design": np.array([r[0] for r in rows]),
+            "shape": np.array([law_shape(r[1].material) for r in rows]),
             "cost": np.array(costs),
             # the shapes the set samples (held-out designs too), as a box is its sampling's
             "set_shape_range": [float(np.nanmin(every)), float(np.nanmax(every))]}
@@ -151,17 +158,11 @@ def law_map_spread(model: Any, *, fast: bool = True, set_name: str = LAW_MAP_SET
     import warnings
 
     from multimorph.calibrated import CalibrationWarning
-    from multimorph.calibrated._fit import fe_training_data
-    from multimorph.calibrated._validate import compare, fe_response
-    from multimorph.calibrated.validate import at_end_of, requested_pressure
+    from multimorph.calibrated._validate import compare
 
-    data = fe_training_data("bending", set_names=(set_name,), ritz=False)
-    model, _ = at_end_of(model, "bending", set_name)
+    model, rows, _ = _fe_designs(model, set_name, holdout=False)
     logs: dict[str, list[float]] = {"pc": [], "ph": []}
-    for r in np.flatnonzero(~np.asarray(data.holdout, bool)):
-        cell = data.cells[r]
-        fe = fe_response(data.paths[r], cell, "bending")
-        p = requested_pressure(set_name, int(data.design[r]), data.paths[r])
+    for _, cell, fe, p in rows:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", CalibrationWarning)
             resp = model.responses([cell], p, fast=fast)[0]

@@ -21,20 +21,9 @@ from multimorph.fe.engine import FESettings
 from multimorph.geometry import CellGeometry
 from multimorph.response import Response
 
-__all__ = [
-    "Comparison",
-    "RomComparison",
-    "ShearComparison",
-    "bend_curvature",
-    "compare_cell",
-    "compare_cell_run",
-    "compare_device",
-    "compare_responses",
-    "compare_shear",
-    "compare_shear_responses",
-    "compare_twisting",
-    "model_label",
-]
+__all__ = ["Comparison", "RomComparison", "ShearComparison", "bend_curvature", "compare_cell",
+           "compare_cell_run", "compare_device", "compare_responses", "compare_shear",
+           "compare_shear_responses", "compare_twisting", "model_label"]
 
 
 def _rel(a: float | None, b: float | None) -> float | None:
