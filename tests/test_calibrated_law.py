@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -14,6 +15,8 @@ from multimorph.calibrated._law import (
     effective_cell,
     effective_material,
     law_shape,
+    membrane_limit_point,
+    stretching_activates,
 )
 from multimorph.calibrated._law_fit import fit_law_map
 from multimorph.geometry import CellGeometry
@@ -81,6 +84,60 @@ def test_fit_law_map_finds_the_line_through_the_designs_cost_minima() -> None:
     assert fit["shape_range"] == pytest.approx([0.006, 0.18])
     # the costs are read off the grid by bilinear interpolation: within a grid step of 0
     assert fit["cost"]["median"] < 3 * np.diff(ls)[0] + np.diff(lj)[0]
+
+
+# ------------------------------------------------ whether a placed stretching cell activates
+def _yeoh_sphere_snaps(k: float) -> bool:
+    """Closed form, independent of the library: a thin Yeoh sphere (c30 = 0) has
+    P ∝ (λ⁻¹ − λ⁻⁷)(1 + 2k(I1 − 3)), I1 = 2λ² + λ⁻⁴; does it pass a maximum by V = 25 V0?"""
+    lam = np.linspace(1.0, 25.0 ** (1 / 3), 20001)[1:]
+    p = (1 / lam - lam ** -7) * (1 + 2 * k * (2 * lam ** 2 + lam ** -4 - 3))
+    return bool(np.any(np.diff(p) < 0))
+
+
+def test_a_yeoh_membrane_loses_its_limit_point_where_the_closed_form_does() -> None:
+    """Oracle: the threshold of c20/c10 above which a Yeoh balloon no longer snaps
+    (0.0424 by the closed form, bisected here), read by ``membrane_limit_point`` on the
+    law's own equibiaxial stress; neo-Hooke always snaps, Gent only above Jm ≈ 17.7, and a
+    Gent wall that locks within the range is not read (None)."""
+    lo, hi = 0.01, 0.1
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if _yeoh_sphere_snaps(mid) else (lo, mid)
+    assert 0.040 < lo < 0.045
+    yeoh = [Material("yeoh", {"c10": 5e4, "c20": f * lo * 5e4, "c30": 0.0})
+            for f in (0.98, 1.02)]
+    assert membrane_limit_point(yeoh[0]) is True
+    assert membrane_limit_point(yeoh[1]) is False
+    assert membrane_limit_point(Material("neo-hooke", {"mu": 1e5})) is True
+    assert membrane_limit_point(Material("gent", {"mu": 1e5, "jm": 40.0})) is True
+    assert membrane_limit_point(Material("gent", {"mu": 1e5, "jm": 16.0})) is False
+    assert membrane_limit_point(Material("gent", {"mu": 1e5, "jm": 9.0})) is None
+
+
+def test_stretching_activates_only_fails_a_stiffening_law_without_a_limit_point() -> None:
+    assert stretching_activates(Material("yeoh", {"c10": 5e4, "c20": 1e3, "c30": 0.0}))
+    assert not stretching_activates(Material("yeoh", {"c10": 5e4, "c20": 5e3, "c30": 0.0}))
+    # the model learned Gent walls (all activate in FE, by a knee where they lock)
+    assert stretching_activates(Material("gent", {"mu": 1e5, "jm": 12.0}))
+    assert stretching_activates(Material("neo-hooke", {"mu": 1e5}))
+    # a softening law (Mooney-Rivlin, no Yeoh shape): nothing FE has told about
+    assert stretching_activates(Material("mooney-rivlin", {"c10": 4e4, "c01": 2e4}))
+
+
+def test_the_rule_agrees_with_fe_on_every_yeoh_stretching_cell() -> None:
+    """Physics: in FE a Yeoh-walled stretching cell has a Pc up to c20/c10 = 0.036 and none
+    from 0.043 (``yeoh_stretching_mirror``, 30 cells over the box): the membrane's rule
+    says which on every one of them, whatever the geometry."""
+    from multimorph.calibrated._fit import fe_training_data
+    from multimorph.calibrated._validate import fe_response
+
+    data = fe_training_data("stretching", set_names=("yeoh_stretching_mirror",), ritz=False)
+    assert len(data.cells) >= 25
+    has = [fe_response(p, c, "stretching").characteristic.critical is not None
+           for p, c in zip(data.paths, data.cells, strict=True)]
+    assert 0 < sum(has) < len(has)
+    assert [stretching_activates(c.material) for c in data.cells] == has
 
 
 # ---------------------------------------------------------------- the shipped law map
@@ -165,3 +222,52 @@ def test_the_law_map_places_held_out_yeoh_cells_closer_to_fe_than_the_closest_ge
     assert len(m) >= 20
     assert np.median(m) < 0.05
     assert np.median(m) < np.median(c) and np.mean(m < c) > 0.5
+
+
+def test_a_stretching_cell_of_a_strongly_hardening_wall_reports_no_activation() -> None:
+    """A stretching cell whose Yeoh wall has no membrane limit point: no Pc, no Ph (FE has
+    none) and why, its curve the effective wall's; the same wall on a bending cell (which
+    activates in FE, `yeoh2_mirror`) keeps its Pc."""
+    model = _shipped()
+    wall = Material("yeoh", {"c10": 5e4, "c20": 5e3, "c30": 0.0}, break_stretch=6.0)
+    eff, _ = effective_material(wall, model.law_map)
+    st = CellGeometry(20e-3, 10e-3, 8e-3, 1e-3, 1e-3, 2e-3, 2e-3, material=wall,
+                      symmetric=True)
+    r = model.responses([st], 60e3, fast=True)[0]
+    ref = model.responses([replace(st, material=eff, bottom_material=eff)], 60e3,
+                          fast=True)[0]
+    assert r.meta["model"] == "calibrated-fast" and ref.characteristic.critical is not None
+    assert r.characteristic.critical is None and r.characteristic.hardening is None
+    cal = r.meta["calibration"]
+    assert cal["activation"]["activates"] is False and "limit point" in cal["activation"][
+        "reason"]
+    assert cal["critical_pressure_range"] == [None, None]
+    np.testing.assert_allclose(r.path.axial_stretch, ref.path.axial_stretch)
+    bend = model.responses([_cell(wall)], 150e3, fast=True)[0]
+    assert bend.meta["model"] == "calibrated-fast"
+    assert bend.characteristic.critical is not None
+    assert "activation" not in bend.meta["calibration"]
+
+
+def test_simulate_says_which_module_does_not_activate() -> None:
+    """The jar lifter with a strongly hardening Yeoh elastomer (c20/c10 0.08): its
+    stretching module has no activation window and the summary's notes say why; its
+    bending module keeps its Pc."""
+    import tomllib
+    from pathlib import Path
+
+    from multimorph.device import device_from_spec, simulate_device
+
+    _shipped()
+    spec = tomllib.loads((Path(__file__).parents[1] / "examples" / "jar_lifter.toml")
+                         .read_text())
+    spec["materials"]["elastomer-III"] = {"model": "yeoh", "c10": "122.5 kPa",
+                                          "c20": "10 kPa", "c30": "0 kPa",
+                                          "break_stretch": 8.0}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = simulate_device(device_from_spec(spec))
+    assert res.sequence.windows["sealer"][0] is None
+    assert res.sequence.windows["lifter"][0] is not None
+    notes = res.to_dict()["notes"]
+    assert any(n.startswith("sealer: no activation") and "limit point" in n for n in notes)

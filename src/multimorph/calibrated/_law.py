@@ -22,6 +22,14 @@ curves came closer and Pc went 7-10 % off (docs/validation.md §4, stop 49). A w
 shape lies outside the mapping's calibrated range (neo-Hooke k = 0, an Ogden rubber)
 keeps the closest-Gent placement (and is answered by the Ritz model where that Jm is
 outside the box).
+
+Whether a placed wall's *stretching* cell activates at all (stop 50) is the wall's own
+law's to say, not its effective Gent wall's: every Gent stretching cell of the data set
+activates (a limit point, or below Jm ≈ 18 a max-slope knee as the wall locks), while in FE
+a Yeoh-walled stretching cell snaps up to c20/c10 = 0.036 and above 0.043 stretches without
+a knee (``yeoh_stretching_mirror``, 30 of 30). The threshold is the one at which a thin
+spherical membrane of the law loses its pressure maximum (c20/c10 = 0.0425 for Yeoh):
+:func:`membrane_limit_point`, read on the law's own equibiaxial stress.
 """
 
 from __future__ import annotations
@@ -34,8 +42,9 @@ import numpy as np
 
 from multimorph.geometry import CellGeometry, TiltedCell
 
-__all__ = ["LAW_MAP_SET", "SHAPE_STRETCH", "effective_cell", "effective_material",
-           "law_shape", "widen_band"]
+__all__ = ["LAW_MAP_SET", "MEMBRANE_VOLUME_RATIO", "SHAPE_STRETCH", "effective_cell",
+           "effective_material", "law_shape", "membrane_limit_point", "stretching_activates",
+           "widen_band"]
 
 #: The FE set the mapping is calibrated on (its training designs; the held-out fifth
 #: checks it, with the `yeoh` sets).
@@ -44,6 +53,9 @@ LAW_MAP_SET = "yeoh2_mirror"
 SHAPE_STRETCH = (1.05, 3.0)
 #: Relative tolerance on the mapping's calibrated range of k (as ``_box.EDGE_RTOL``).
 SHAPE_RTOL = 0.02
+#: How far a wall's spherical membrane is inflated when its limit point is sought (V/V0:
+#: the chamber volume to which the FE data set traces its cells).
+MEMBRANE_VOLUME_RATIO = 25.0
 
 
 def law_shape(material: Any) -> float:
@@ -65,6 +77,39 @@ def law_shape(material: Any) -> float:
     a = 2.0 * x / w1
     b = (w1 - c10) / w1
     return float(np.dot(a, b) / np.dot(a, a)) / c10
+
+
+def membrane_limit_point(material: Any) -> bool | None:
+    """Whether a thin spherical membrane of ``material``, inflated to
+    :data:`MEMBRANE_VOLUME_RATIO` × its volume, passes a pressure maximum (snaps).
+
+    Its pressure is P = 2 H0 s(λ) / (R0 λ²), s the law's equibiaxial nominal stress at the
+    hoop stretch λ (the law's own energy function: ``Material.nominal_stress``). A Yeoh law
+    keeps the maximum up to c20/c10 = 0.0425 (neo-Hooke always, Gent above Jm ≈ 17.7).
+    None where the law's curve cannot be read (it locks inside the range: a locking wall
+    stiffens to a knee whether or not it snaps)."""
+    lam = np.linspace(1.0005, MEMBRANE_VOLUME_RATIO ** (1.0 / 3.0), 600)
+    try:
+        s = np.asarray(material.nominal_stress("equibiaxial", lam), float)
+    except Exception:   # lock-up inside the range
+        return None
+    p = s / lam ** 2
+    if not np.all(np.isfinite(p)):
+        return None
+    return bool(np.any(np.diff(p) < 0.0))
+
+
+def stretching_activates(material: Any) -> bool:
+    """Whether a stretching cell of a ``material`` wall answered through an effective Gent
+    wall activates: False for a stiffening non-Gent law (a positive Yeoh shape, the family
+    FE checked) whose membrane has no limit point (:func:`membrane_limit_point`); True
+    otherwise (Gent walls, which the model learned, and laws FE has not told about)."""
+    if material.model == "gent":
+        return True
+    k = law_shape(material)
+    if not (math.isfinite(k) and k > 0):
+        return True
+    return membrane_limit_point(material) is not False
 
 
 def effective_material(material: Any, law_map: dict[str, Any] | None

@@ -43,6 +43,7 @@ from multimorph.calibrated._fit import (
     emulable as is_emulable,
 )
 from multimorph.calibrated._gp import MultiOutputGP, matern52
+from multimorph.calibrated._law import law_shape, stretching_activates
 from multimorph.calibrated._representation import QUANTITIES, T_GRID, kind_of, paths_from_grid
 from multimorph.errors import MultimorphError, SpecError
 from multimorph.geometry import CellGeometry, TiltedCell
@@ -382,6 +383,8 @@ class CalibratedModel:
                     g = given[i].cell if isinstance(given[i], TiltedCell) else given[i]
                     res = replace(res, shear_modulus=g.mu).with_meta(
                         calibration=self._law_bands(res, law))
+                    if kind == "stretching" and not stretching_activates(g.material):
+                        res = _without_activation(res, g.material)
                 out[i] = res
         return out
 
@@ -647,6 +650,26 @@ def _straight_for_tilted(r: Response, cell: TiltedCell,
                            "(plate level); the strip shear follows the Ritz rule "
                            "γ = ε sin 2β")
     return resp.with_meta(**{**r.meta, "calibration": cal})
+
+
+def _without_activation(res: Response, material: Any) -> Response:
+    """``res`` without Pc and Ph: a stretching cell whose wall's membrane has no limit point
+    stretches without a knee (``_law.stretching_activates``; FE: ``yeoh_stretching_mirror``),
+    although its effective Gent wall, like every Gent wall, would activate. Its curve stays
+    the effective wall's; the failure pressure is the wall's own."""
+    ch = res.characteristic
+    at = dict(ch.curvature_at)
+    at.update(critical=None, hardening=None)
+    char = replace(ch, critical=None, critical_kind=None, hardening=None, curvature_at=at)
+    shape = law_shape(material)
+    cal = {**res.meta["calibration"], "critical_pressure_range": [None, None],
+           "hardening_pressure_range": [None, None],
+           "activation": {
+               "activates": False,
+               "reason": (f"a {material.model} wall of c20/c10 {shape:.3g} has no membrane "
+                          "limit point (Yeoh: above 0.0425); in FE such a stretching cell "
+                          "stretches without a knee, so no Pc or Ph is reported")}}
+    return replace(res, characteristic=char).with_meta(calibration=cal)
 
 
 def _truncate(path: EquilibriumPath, p_max: float) -> tuple[EquilibriumPath, bool]:

@@ -99,6 +99,9 @@ def model_line(data: dict[str, Any]) -> str:
                 if lo is not None and hi is not None else "")
         band += _disagreement(cal.get("anchors") or {})
         band += _law_note(cal.get("law"))
+        act = cal.get("activation") or {}
+        if act.get("activates") is False:
+            band += f"; no activation: {act.get('reason', '')}"
         how = ("Ritz corrected against 3D FE" if name == "calibrated" else
                "Ritz corrected against 3D FE, on emulated Ritz features")
         return f"{name} ({how}; held-out error in docs/validation.md){band}"
@@ -205,8 +208,11 @@ def cell(
                   f"{p_max / 1e3:.4g} kPa")
     console.print(f"  model: {model_line(data)}", highlight=False)
     kind = f" ({ch.critical_kind})" if ch.critical_kind else ""
-    console.print(f"  critical pressure Pc{kind}: {kpa(ch.critical)}")
-    console.print(f"  hardening pressure Ph: {kpa(ch.hardening)}")
+    none = (((data.get("calibration") or {}).get("activation") or {}).get("activates")
+            is False)
+    console.print(f"  critical pressure Pc{kind}: "
+                  f"{'none (no knee: see the model line)' if none else kpa(ch.critical)}")
+    console.print(f"  hardening pressure Ph: {'none' if none else kpa(ch.hardening)}")
     console.print(f"  failure pressure: {kpa(ch.failure)}")
     if ch.signal == "axial_stretch":
         console.print(f"  symmetric (stretching) cell: Pc and Ph read on the axial stretch; "

@@ -89,12 +89,22 @@ class DeviceResult:
         return [f"{key} from {p / 1e3:.3g} kPa; self-contact is not modelled"
                 for key, p in first.items()]
 
+    def activation_notes(self) -> list[str]:
+        """The modules a cell model says do not activate at all, and why (a stretching
+        module of a strongly hardening Yeoh wall: ``calibrated._law.stretching_activates``)."""
+        out = []
+        for name, strain in self.strains.items():
+            act = ((strain.response.meta or {}).get("calibration") or {}).get("activation")
+            if act and act.get("activates") is False:
+                out.append(f"{name}: no activation — {act.get('reason', '')}")
+        return out
+
     def to_dict(self) -> dict[str, Any]:
         models = sorted({_model_of(s.response) for s in self.strains.values()})
         out: dict[str, Any] = {"device": self.device.name, "pmax": self.pmax,
                                "model": models[0] if len(models) == 1 else models,
                                "modules": {}, "sequence": self.sequence.to_dict(),
-                               "notes": self.notes()}
+                               "notes": self.notes() + self.activation_notes()}
         for name, strain in self.strains.items():
             ch = strain.response.characteristic
             module = strain.module
