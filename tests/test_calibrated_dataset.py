@@ -96,7 +96,9 @@ def test_every_reference_spec_parses_and_covers_its_kind(name: str) -> None:
                                         "bending_lowjm_mirror": 50,
                                         "bending2_mirror": 50,
                                         "yeoh2_mirror": 50,
-                                        "yeoh_stretching_mirror": 25}.get(name, 100)
+                                        "yeoh_stretching_mirror": 25,
+                                        "yeoh_twisting": 25,
+                                        "yeoh3_mirror": 100}.get(name, 100)
     if name.endswith(("_narrow", "_single", "_single2", "_lowjm_mirror",
                       "_softbottom_mirror")):
         # a refinement set lies inside its kind's calibrated box (the main set's)

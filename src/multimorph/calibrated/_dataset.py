@@ -52,7 +52,8 @@ REFERENCE_SETS = {"bending": "bending", "stretching": "stretching", "twisting": 
                   "twisting_narrow": "twisting", "twisting3": "twisting",
                   "bending_lowjm_mirror": "bending", "bending2_mirror": "bending",
                   "bending3_mirror": "bending", "bending_softbottom_mirror": "bending",
-                  "yeoh2_mirror": "bending", "yeoh_stretching_mirror": "stretching"}
+                  "yeoh2_mirror": "bending", "yeoh_stretching_mirror": "stretching",
+                  "yeoh_twisting": "twisting", "yeoh3_mirror": "bending"}
 #: Sets kept out of the calibration whole (validation only). ``twisting3`` (stop 41, 116
 #: tilted cells over the whole box): the twisting kind refitted with it was no better on
 #: the pooled held-out tilted cells (docs/validation.md §4), so it checks the shipped kind
@@ -62,9 +63,11 @@ REFERENCE_SETS = {"bending": "bending", "stretching": "stretching", "twisting": 
 #: ``bending_lowjm_mirror`` (stop 42, Gent Jm 9-14): the bending kind refitted with it was
 #: no clear gain (docs/validation.md §4); it checks the shipped kind's low-Jm corner.
 #: ``yeoh_stretching_mirror`` (stop 49, stretching cells with Yeoh walls): how the law map,
-#: fitted on bending cells (``yeoh2_mirror``), carries over to the stretching kind.
+#: fitted on bending cells (``yeoh2_mirror``), carries over to the stretching kind;
+#: ``yeoh_twisting`` (stop 50, tilted cells with Yeoh walls) the same for the twisting kind.
 VALIDATION_SETS = ("grid24", "yeoh", "grid24_mirror", "yeoh_mirror", "twisting3",
-                   "bending2_mirror", "bending_lowjm_mirror", "yeoh_stretching_mirror")
+                   "bending2_mirror", "bending_lowjm_mirror", "yeoh_stretching_mirror",
+                   "yeoh_twisting")
 #: Path quantities stored per design (SI; NaN where a backend does not give one).
 CURVES = ("pressure", "curvature", "peak_stretch", "axial_stretch", "volume", "bend_angle",
           "shear", "twist_rate")

@@ -23,13 +23,15 @@ shape lies outside the mapping's calibrated range (neo-Hooke k = 0, an Ogden rub
 keeps the closest-Gent placement (and is answered by the Ritz model where that Jm is
 outside the box).
 
-Whether a placed wall's *stretching* cell activates at all (stop 50) is the wall's own
-law's to say, not its effective Gent wall's: every Gent stretching cell of the data set
-activates (a limit point, or below Jm ≈ 18 a max-slope knee as the wall locks), while in FE
-a Yeoh-walled stretching cell snaps up to c20/c10 = 0.036 and above 0.043 stretches without
-a knee (``yeoh_stretching_mirror``, 30 of 30). The threshold is the one at which a thin
-spherical membrane of the law loses its pressure maximum (c20/c10 = 0.0425 for Yeoh):
-:func:`membrane_limit_point`, read on the law's own equibiaxial stress.
+Whether a placed wall's *stretching or tilted* cell activates at all (stop 50) is the
+wall's own law's to say, not its effective Gent wall's: every Gent stretching cell of the
+data set activates (a limit point, or below Jm ≈ 18 a max-slope knee as the wall locks),
+while in FE a Yeoh-walled stretching cell snaps up to c20/c10 = 0.036 and above 0.043
+stretches without a knee (``yeoh_stretching_mirror``, 30 of 30), and a tilted one twists
+without a knee above it on 9 of 12 (``yeoh_twisting``; a weak max-slope knee on the other
+3). The threshold is the one at which a thin spherical membrane of the law loses its
+pressure maximum (c20/c10 = 0.0424 for Yeoh): :func:`membrane_limit_point`, read on the
+law's own equibiaxial stress. Bending cells of such walls still activate in FE.
 """
 
 from __future__ import annotations
@@ -42,9 +44,9 @@ import numpy as np
 
 from multimorph.geometry import CellGeometry, TiltedCell
 
-__all__ = ["LAW_MAP_SET", "MEMBRANE_VOLUME_RATIO", "SHAPE_STRETCH", "effective_cell",
-           "effective_material", "law_shape", "membrane_limit_point", "stretching_activates",
-           "widen_band"]
+__all__ = ["KNEELESS_KINDS", "LAW_MAP_SET", "MEMBRANE_VOLUME_RATIO", "SHAPE_STRETCH",
+           "effective_cell", "effective_material", "law_shape", "membrane_limit_point",
+           "wall_activates", "widen_band"]
 
 #: The FE set the mapping is calibrated on (its training designs; the held-out fifth
 #: checks it, with the `yeoh` sets).
@@ -53,6 +55,8 @@ LAW_MAP_SET = "yeoh2_mirror"
 SHAPE_STRETCH = (1.05, 3.0)
 #: Relative tolerance on the mapping's calibrated range of k (as ``_box.EDGE_RTOL``).
 SHAPE_RTOL = 0.02
+#: The cell kinds whose activation is the wall's membrane's to say (:func:`wall_activates`).
+KNEELESS_KINDS = ("stretching", "twisting")
 #: How far a wall's spherical membrane is inflated when its limit point is sought (V/V0:
 #: the chamber volume to which the FE data set traces its cells).
 MEMBRANE_VOLUME_RATIO = 25.0
@@ -85,7 +89,7 @@ def membrane_limit_point(material: Any) -> bool | None:
 
     Its pressure is P = 2 H0 s(λ) / (R0 λ²), s the law's equibiaxial nominal stress at the
     hoop stretch λ (the law's own energy function: ``Material.nominal_stress``). A Yeoh law
-    keeps the maximum up to c20/c10 = 0.0425 (neo-Hooke always, Gent above Jm ≈ 17.7).
+    keeps the maximum up to c20/c10 = 0.0424 (neo-Hooke always, Gent above Jm ≈ 17.7).
     None where the law's curve cannot be read (it locks inside the range: a locking wall
     stiffens to a knee whether or not it snaps)."""
     lam = np.linspace(1.0005, MEMBRANE_VOLUME_RATIO ** (1.0 / 3.0), 600)
@@ -99,11 +103,13 @@ def membrane_limit_point(material: Any) -> bool | None:
     return bool(np.any(np.diff(p) < 0.0))
 
 
-def stretching_activates(material: Any) -> bool:
-    """Whether a stretching cell of a ``material`` wall answered through an effective Gent
-    wall activates: False for a stiffening non-Gent law (a positive Yeoh shape, the family
-    FE checked) whose membrane has no limit point (:func:`membrane_limit_point`); True
-    otherwise (Gent walls, which the model learned, and laws FE has not told about)."""
+def wall_activates(material: Any) -> bool:
+    """Whether a stretching or tilted cell (:data:`KNEELESS_KINDS`) of a ``material`` wall
+    answered through an effective Gent wall activates: False for a stiffening non-Gent law
+    (a positive Yeoh shape, the family FE checked) whose membrane has no limit point
+    (:func:`membrane_limit_point`); True otherwise (Gent walls, which the model learned,
+    and laws FE has not told about). A bending cell of such a wall still activates in FE
+    (its κ rises steeply as the top wall bulges: `yeoh2_mirror`)."""
     if material.model == "gent":
         return True
     k = law_shape(material)

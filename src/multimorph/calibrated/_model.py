@@ -43,7 +43,7 @@ from multimorph.calibrated._fit import (
     emulable as is_emulable,
 )
 from multimorph.calibrated._gp import MultiOutputGP, matern52
-from multimorph.calibrated._law import law_shape, stretching_activates
+from multimorph.calibrated._law import KNEELESS_KINDS, law_shape, wall_activates
 from multimorph.calibrated._representation import QUANTITIES, T_GRID, kind_of, paths_from_grid
 from multimorph.errors import MultimorphError, SpecError
 from multimorph.geometry import CellGeometry, TiltedCell
@@ -383,9 +383,14 @@ class CalibratedModel:
                     g = given[i].cell if isinstance(given[i], TiltedCell) else given[i]
                     res = replace(res, shear_modulus=g.mu).with_meta(
                         calibration=self._law_bands(res, law))
-                    if kind == "stretching" and not stretching_activates(g.material):
-                        res = _without_activation(res, g.material)
                 out[i] = res
+        # a stretching or tilted cell of a wall whose membrane does not snap (``_law``)
+        for i, res in enumerate(out):
+            if (isinstance(res, Response) and kind_of(given[i]) in KNEELESS_KINDS
+                    and str(res.meta.get("model", "")).startswith("calibrated")):
+                g = given[i].cell if isinstance(given[i], TiltedCell) else given[i]
+                if not wall_activates(g.material):
+                    out[i] = _without_activation(res, g.material)
         return out
 
     def _law_bands(self, res: Response, law: dict[str, Any]) -> dict[str, Any]:
@@ -653,10 +658,11 @@ def _straight_for_tilted(r: Response, cell: TiltedCell,
 
 
 def _without_activation(res: Response, material: Any) -> Response:
-    """``res`` without Pc and Ph: a stretching cell whose wall's membrane has no limit point
-    stretches without a knee (``_law.stretching_activates``; FE: ``yeoh_stretching_mirror``),
-    although its effective Gent wall, like every Gent wall, would activate. Its curve stays
-    the effective wall's; the failure pressure is the wall's own."""
+    """``res`` without Pc and Ph: a stretching or tilted cell whose wall's membrane has no
+    limit point (``_law.wall_activates``; FE: ``yeoh_stretching_mirror``,
+    ``yeoh_twisting``) stretches or twists without a knee, although its effective Gent
+    wall, like every Gent wall, would activate. Its curve stays the effective wall's; the
+    failure pressure is the wall's own."""
     ch = res.characteristic
     at = dict(ch.curvature_at)
     at.update(critical=None, hardening=None)
@@ -667,8 +673,10 @@ def _without_activation(res: Response, material: Any) -> Response:
            "activation": {
                "activates": False,
                "reason": (f"a {material.model} wall of c20/c10 {shape:.3g} has no membrane "
-                          "limit point (Yeoh: above 0.0425); in FE such a stretching cell "
-                          "stretches without a knee, so no Pc or Ph is reported")}}
+                          "limit point (Yeoh: above 0.0424); in FE such stretching and tilted "
+                          "cells stretch or twist without a knee, so no Pc or Ph is reported "
+                          "(a Gent fit of the same data may snap: docs/validation.md §2, "
+                          "Other laws)")}}
     return replace(res, characteristic=char).with_meta(calibration=cal)
 
 

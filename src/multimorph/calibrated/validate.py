@@ -54,7 +54,9 @@ CHECKS = (("bending", "bending"), ("bending", "bending_narrow"), ("bending", "be
           # Yeoh walls on stretching cells (stop 49): the law map, fitted on bending cells
           ("stretching", "yeoh_stretching_mirror"),
           ("twisting", "twisting"), ("twisting", "twisting2"), ("twisting", "twisting_narrow"),
-          ("twisting", "twisting3"))
+          ("twisting", "twisting3"),
+          # Yeoh walls on tilted cells (stop 50): the law map, fitted on bending cells
+          ("twisting", "yeoh_twisting"))
 
 #: The issue's measure is per cell kind: each kind's held-out designs pooled over its sets
 #: (stop 42; the per-set rows above it). The bending kind answers as the cell inside a

@@ -91,7 +91,8 @@ class DeviceResult:
 
     def activation_notes(self) -> list[str]:
         """The modules a cell model says do not activate at all, and why (a stretching
-        module of a strongly hardening Yeoh wall: ``calibrated._law.stretching_activates``)."""
+        or twisting module of a strongly hardening Yeoh wall:
+        ``calibrated._law.wall_activates``)."""
         out = []
         for name, strain in self.strains.items():
             act = ((strain.response.meta or {}).get("calibration") or {}).get("activation")
