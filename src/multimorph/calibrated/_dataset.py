@@ -65,9 +65,11 @@ REFERENCE_SETS = {"bending": "bending", "stretching": "stretching", "twisting": 
 #: ``yeoh_stretching_mirror`` (stop 49, stretching cells with Yeoh walls): how the law map,
 #: fitted on bending cells (``yeoh2_mirror``), carries over to the stretching kind;
 #: ``yeoh_twisting`` (stop 50, tilted cells with Yeoh walls) the same for the twisting kind.
+#: ``yeoh3_mirror`` (stop 50, a second sample of Yeoh-walled bending cells over the box):
+#: checks the law map, fitted on ``yeoh2_mirror``'s training designs, on cells it never saw.
 VALIDATION_SETS = ("grid24", "yeoh", "grid24_mirror", "yeoh_mirror", "twisting3",
                    "bending2_mirror", "bending_lowjm_mirror", "yeoh_stretching_mirror",
-                   "yeoh_twisting")
+                   "yeoh_twisting", "yeoh3_mirror")
 #: Path quantities stored per design (SI; NaN where a backend does not give one).
 CURVES = ("pressure", "curvature", "peak_stretch", "axial_stretch", "volume", "bend_angle",
           "shear", "twist_rate")

@@ -24,8 +24,8 @@ keeps the closest-Gent placement (and is answered by the Ritz model where that J
 outside the box).
 
 Whether a placed wall's *stretching or tilted* cell activates at all (stop 50) is the
-wall's own law's to say, not its effective Gent wall's: every Gent stretching cell of the
-data set activates (a limit point, or below Jm ≈ 18 a max-slope knee as the wall locks),
+wall's own law's to say, not its effective Gent wall's: the Gent stretching cells of the
+data set activate (383 of 393: a limit point, or below Jm ≈ 18 a knee as the wall locks),
 while in FE a Yeoh-walled stretching cell snaps up to c20/c10 = 0.036 and above 0.043
 stretches without a knee (``yeoh_stretching_mirror``, 30 of 30), and a tilted one twists
 without a knee above it on 9 of 12 (``yeoh_twisting``; a weak max-slope knee on the other

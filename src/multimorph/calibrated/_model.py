@@ -661,8 +661,8 @@ def _without_activation(res: Response, material: Any) -> Response:
     """``res`` without Pc and Ph: a stretching or tilted cell whose wall's membrane has no
     limit point (``_law.wall_activates``; FE: ``yeoh_stretching_mirror``,
     ``yeoh_twisting``) stretches or twists without a knee, although its effective Gent
-    wall, like every Gent wall, would activate. Its curve stays the effective wall's; the
-    failure pressure is the wall's own."""
+    wall, like the Gent walls the model learned, would activate. Its curve stays the
+    effective wall's; the failure pressure is the wall's own."""
     ch = res.characteristic
     at = dict(ch.curvature_at)
     at.update(critical=None, hardening=None)

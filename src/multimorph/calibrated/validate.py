@@ -45,8 +45,9 @@ CHECKS = (("bending", "bending"), ("bending", "bending_narrow"), ("bending", "be
           ("bending", "bending_single_mirror"), ("bending", "bending_single2_mirror"),
           ("bending", "bending3_mirror"), ("bending", "bending_softbottom_mirror"),
           ("bending", "grid24_mirror"), ("bending", "yeoh_mirror"),
-          # Yeoh walls over the box (stop 49): the law map's held-out fifth
-          ("bending", "yeoh2_mirror"),
+          # Yeoh walls over the box (stop 49): the law map's held-out fifth; a second
+          # sample the map never saw (stop 50)
+          ("bending", "yeoh2_mirror"), ("bending", "yeoh3_mirror"),
           # never used to choose a fit (stop 42): a second sample of the box, and Jm 9-14
           ("bending", "bending2_mirror"), ("bending", "bending_lowjm_mirror"),
           ("stretching", "stretching_mirror"), ("stretching", "stretching_narrow_mirror"),
@@ -66,7 +67,8 @@ CHECKS = (("bending", "bending"), ("bending", "bending_narrow"), ("bending", "be
 #: of its own. Since stop 47 the mirror pool holds `bending3_mirror`'s held-out fifth too
 #: (a training set since then), since stop 48 `bending_softbottom_mirror`'s. Since stop
 #: 49 the Yeoh walls (a law the GPs never saw, placed by the law map, ``_law``): all of
-#: `yeoh_mirror` and the held-out fifth of `yeoh2_mirror` (whose rest the map is fitted on).
+#: `yeoh_mirror` and the held-out fifth of `yeoh2_mirror` (whose rest the map is fitted on);
+#: since stop 50 with all of `yeoh3_mirror` too, a second sample the map never saw.
 POOLS = (("bending", "mirror ends (the cell inside a module)",
           ("bending_mirror", "bending_narrow_mirror", "bending_single_mirror",
            "bending_single2_mirror", "bending3_mirror", "bending_softbottom_mirror")),
@@ -79,7 +81,9 @@ POOLS = (("bending", "mirror ends (the cell inside a module)",
          ("twisting", "held-out fifths", ("twisting", "twisting2", "twisting_narrow")),
          ("twisting", "held-out fifths and twisting3", ("twisting", "twisting2",
                                                         "twisting_narrow", "twisting3")),
-         ("bending", "Yeoh walls, mirror ends", ("yeoh_mirror", "yeoh2_mirror")))
+         ("bending", "Yeoh walls, mirror ends", ("yeoh_mirror", "yeoh2_mirror")),
+         ("bending", "Yeoh walls, mirror ends, and yeoh3_mirror (never fitted on)",
+          ("yeoh_mirror", "yeoh2_mirror", "yeoh3_mirror")))
 
 
 def unseen_designs(manifest: dict[str, Any], kind: str, set_name: str, design: np.ndarray,
