@@ -76,3 +76,25 @@ def test_unmet_target_is_reported_not_silent():
     assert not r.feasible and r.best is not None and not r.best.meets
     text = " ".join(r.explanation)
     assert "magnitude" in text and "max_length" in text
+
+
+def test_a_stretch_stage_of_a_wall_that_does_not_snap_says_so():
+    """The jar lifter's target with a strongly hardening Yeoh elastomer (c20/c10 0.08):
+    its stretching cells have no knee (the membrane rule, FE: `yeoh_stretching_mirror`),
+    so the stretch stage cannot activate in it, whatever the walls — said as such, not
+    as "too stiff" (the calibrated model; reachability alone, no search)."""
+    from pathlib import Path
+
+    from multimorph.models import batch_model
+
+    spec = tomllib.loads((Path(__file__).parents[1] / "examples" / "target_jar_lifter.toml")
+                         .read_text())
+    spec["constraints"]["materials"] = [{"name": "yeoh-rubber", "model": "yeoh",
+                                         "c10": "122.5 kPa", "c20": "10 kPa",
+                                         "c30": "0 kPa", "break_stretch": 8.0}]
+    r = design(target_from_spec(spec), model=batch_model("calibrated-fast"),
+               settings=DesignSettings(budget=8, population=4, seed=0))
+    assert not r.feasible
+    text = " ".join(r.explanation)
+    assert "'sealer' (stretch) cannot activate" in text and "limit point" in text
+    assert "softest allowed design" not in text

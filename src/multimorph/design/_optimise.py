@@ -338,6 +338,16 @@ def _reachability(space: SearchSpace, model: Any) -> tuple[dict[str, Any], list[
             "stiffest_end_pressure": {n: p for p, n in stiff},
             "softest_end_pressure": {n: p for p, _, n in soft},
         }
+        # a module whose cells do not activate at all in any allowed material (a
+        # stretching or twisting cell of a wall whose membrane does not snap)
+        still = [_no_activation(evs[k], i) for k in range(2 * nm)]
+        if all(still):
+            reasons.append(
+                f"stage {stage.name!r} ({stage.kind}) cannot activate: its cells in every "
+                f"allowed material stretch or twist without a knee (material "
+                f"{mats[0].name!r}: {still[0]}); allow a material whose membrane snaps (a "
+                f"Gent fit of the same rubber, or a Yeoh wall of c20/c10 ≤ 0.042)")
+            continue
         # too stiff a target: even the stiffest corner of every material completes too early
         if all(p is not None for p, _ in stiff):
             top, name = max(stiff, key=lambda pn: pn[0])
@@ -366,6 +376,15 @@ def _reachability(space: SearchSpace, model: Any) -> tuple[dict[str, Any], list[
                 f"and the allowed materials bind (thinner walls or a softer material are "
                 f"needed)")
     return reach, reasons
+
+
+def _no_activation(ev: Evaluation, stage: int) -> str | None:
+    """Why the cell model says stage ``stage``'s module of ``ev`` does not activate at all
+    (``calibration.activation``), or None."""
+    resp = ev.responses[stage] if ev.responses and stage < len(ev.responses) else None
+    meta = getattr(resp, "meta", None) or {}
+    act = (meta.get("calibration") or {}).get("activation") or {}
+    return str(act.get("reason", "no activation")) if act.get("activates") is False else None
 
 
 def _binding(space: SearchSpace, ev: Evaluation) -> list[str]:
