@@ -298,3 +298,16 @@ def test_simulate_says_which_module_does_not_activate() -> None:
     assert res.sequence.windows["lifter"][0] is not None
     notes = res.to_dict()["notes"]
     assert any(n.startswith("sealer: no activation") and "limit point" in n for n in notes)
+
+
+def test_a_calibrated_sweep_records_why_a_cell_does_not_activate() -> None:
+    from multimorph.sweep._backends import CalibratedFastBackend
+
+    _shipped()
+    wall = Material("yeoh", {"c10": 5e4, "c20": 5e3, "c30": 0.0}, break_stretch=6.0)
+    st = CellGeometry(20e-3, 10e-3, 8e-3, 1e-3, 1e-3, 2e-3, 2e-3, material=wall,
+                      symmetric=True)
+    rec = CalibratedFastBackend().evaluate_batch([st, _cell(wall)], 60e3,
+                                                 ["characteristic"], {})
+    assert rec[0]["meta"]["activation"]["activates"] is False
+    assert "activation" not in rec[1]["meta"]

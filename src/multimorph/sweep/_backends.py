@@ -518,6 +518,8 @@ class CalibratedBackend:
             meta = {"model": r.meta.get("model", "calibrated"),
                     "calibration_inside": bool(info.get("inside", False)),
                     "outside": info.get("outside", {})}
+            if "activation" in info:  # a cell without a knee (``calibrated._law``): why
+                meta["activation"] = info["activation"]
             if isinstance(d, TiltedCell) and r.backend != "calibrated":  # (both variants)
                 recs.append(_tilted_record(r, tilted_shear(r, d.cell, d.tilt), outputs, meta,
                                            d))
