@@ -113,6 +113,12 @@ def test_a_yeoh_membrane_loses_its_limit_point_where_the_closed_form_does() -> N
     assert membrane_limit_point(Material("gent", {"mu": 1e5, "jm": 40.0})) is True
     assert membrane_limit_point(Material("gent", {"mu": 1e5, "jm": 16.0})) is False
     assert membrane_limit_point(Material("gent", {"mu": 1e5, "jm": 9.0})) is None
+    # the classic neo-Hookean balloon: its pressure peaks at λ = 7^(1/6) = 1.383
+    from multimorph.calibrated._law import membrane_summary
+
+    nh = membrane_summary(Material("neo-hooke", {"mu": 1e5}))
+    assert nh["limit_stretch"] == pytest.approx(7 ** (1 / 6), abs=0.005)
+    assert nh["cells_activate"] is True
 
 
 def test_wall_activates_only_fails_a_stiffening_law_without_a_limit_point() -> None:

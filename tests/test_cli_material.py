@@ -102,8 +102,14 @@ def test_list_and_show(app: typer.Typer, runner: CliRunner) -> None:
     d = json.loads(r.stdout)
     assert d["material"]["model"] == "yeoh"
     assert d["material"]["provenance"]["doi"] == "10.1089/soro.2019.0115"
+    # its Yeoh fit (c20/c10 0.047) has no balloon limit point; its Gent fit (Jm 25) does
+    assert d["membrane"] == {"limit_point": False, "limit_stretch": None,
+                             "cells_activate": False}
+    r = runner.invoke(app, ["material", "show", "dragon-skin-30", "--json"])
+    assert json.loads(r.stdout)["membrane"]["limit_point"] is True
     r = runner.invoke(app, ["material", "show", "ecoflex-00-30"])
     assert r.exit_code == 0 and "kPa" in r.stdout and "ODbL" in r.stdout
+    assert "balloon: snaps" in r.stdout
     r = runner.invoke(app, ["material", "show", "ecoflex-30"])
     assert r.exit_code != 0 and "did you mean" in r.stderr
 

@@ -46,7 +46,7 @@ from multimorph.geometry import CellGeometry, TiltedCell
 
 __all__ = ["KNEELESS_KINDS", "LAW_MAP_SET", "MEMBRANE_VOLUME_RATIO", "SHAPE_STRETCH",
            "effective_cell", "effective_material", "law_shape", "membrane_limit_point",
-           "wall_activates", "widen_band"]
+           "membrane_summary", "wall_activates", "widen_band"]
 
 #: The FE set the mapping is calibrated on (its training designs; the held-out fifth
 #: checks it, with the `yeoh` sets).
@@ -101,6 +101,20 @@ def membrane_limit_point(material: Any) -> bool | None:
     if not np.all(np.isfinite(p)):
         return None
     return bool(np.any(np.diff(p) < 0.0))
+
+
+def membrane_summary(material: Any) -> dict[str, Any]:
+    """What a thin balloon of ``material`` does (:func:`membrane_limit_point`) and what
+    that means for the calibrated model's stretching and tilted cells
+    (:func:`wall_activates`): ``{"limit_point", "limit_stretch", "cells_activate"}``."""
+    lp = membrane_limit_point(material)
+    at = None
+    if lp:
+        lam = np.linspace(1.0005, MEMBRANE_VOLUME_RATIO ** (1.0 / 3.0), 600)
+        p = np.asarray(material.nominal_stress("equibiaxial", lam), float) / lam ** 2
+        at = float(lam[int(np.argmax(np.diff(p) < 0.0))])
+    return {"limit_point": lp, "limit_stretch": at,
+            "cells_activate": wall_activates(material)}
 
 
 def wall_activates(material: Any) -> bool:

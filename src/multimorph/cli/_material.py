@@ -77,6 +77,18 @@ def material_list(
                       "Marechal et al. 2021 data, ODbL 1.0.", highlight=False)
 
 
+def _membrane_words(membrane: dict[str, Any]) -> str:
+    """A thin balloon of the law, in words (``calibrated._law.membrane_summary``)."""
+    if membrane["limit_point"]:
+        return (f"snaps (pressure maximum at hoop stretch {membrane['limit_stretch']:.3g})")
+    if membrane["limit_point"] is None:
+        return "locks before V/V0 = 25 (a knee, whether or not it snaps)"
+    if not membrane["cells_activate"]:
+        return ("no pressure maximum up to V/V0 = 25: stretching and tilted cells of it have "
+                "no knee (no Pc or Ph; docs/validation.md §2, Other laws)")
+    return "no pressure maximum up to V/V0 = 25"
+
+
 @material_app.command("show", cls=PlainHelpCommand)
 def material_show(
     name: Annotated[str, typer.Argument(help="Library name, e.g. dragon-skin-30 "
@@ -95,10 +107,14 @@ def material_show(
         m = get_material(name, model)
         entry = library_entry(m.name)
         stats = entry["models"][m.model].get("stats")
+        from multimorph.calibrated._law import membrane_summary
+
+        membrane = membrane_summary(m)
         if as_json:
             emit_json({"name": m.name, "title": entry["title"], "supplier": entry["supplier"],
                        "material": m.to_dict(), "shear_modulus": m.shear_modulus,
-                       "stats": stats, "models": list(entry["models"])})
+                       "stats": stats, "models": list(entry["models"]),
+                       "membrane": membrane})
             return
         law = m.law
         console.print(f"[bold]{m.name}[/] — {entry['title']}"
@@ -110,6 +126,7 @@ def material_show(
         console.print(f"  small-strain shear modulus μ = {_fmt_param(m.shear_modulus, 'Pa')}")
         if m.break_stretch:
             console.print(f"  uniaxial stretch at break = {m.break_stretch:.3g}")
+        console.print(f"  balloon: {_membrane_words(membrane)}", highlight=False)
         if stats:
             console.print(f"fit: {stats['status']}, relative RMS {_fmt_pct(stats['relative_rms'])}"
                           f", median relative error {_fmt_pct(stats['median_relative_error'])}, "
