@@ -171,10 +171,22 @@ def effective_cell(cell: CellGeometry | TiltedCell, law_map: dict[str, Any] | No
         return cell, None
     if c.bottom_material is not None and c.bottom_material == c.material:
         bottom = wall                      # one elastomer stays one elastomer
+    clamp = None
+    if (info is not None and binfo is None and bottom is not None and bottom is not wall
+            and bottom.model == "gent"
+            and c.mu <= bottom.shear_modulus < wall.shear_modulus):
+        # a bottom at least as stiff as the wall stays so: the map's μ factor would put a
+        # bottom of μb/μ just above 1 below the box's edge (μb/μ ≥ 1), out to the Ritz
+        # model, for a factor the map applies to the wall alone (stop 50)
+        clamp = {"mu_b_over_mu": bottom.shear_modulus / c.mu,
+                 "placed_mu_b_over_mu": bottom.shear_modulus / wall.shear_modulus}
+        bottom = replace(bottom, params={**bottom.params, "mu": wall.shear_modulus})
     placed = replace(c, material=wall, bottom_material=bottom)
     out: dict[str, Any] = {"wall": info} if info is not None else {}
     if binfo is not None:
         out["bottom"] = binfo
+    if clamp is not None:
+        out["bottom_clamped"] = clamp
     return (replace(cell, cell=placed) if isinstance(cell, TiltedCell) else placed), out
 
 

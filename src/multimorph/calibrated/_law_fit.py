@@ -22,10 +22,11 @@ from multimorph.calibrated._law import (
     SEARCH_JM,
     SEARCH_MU_FACTOR,
     law_shape,
+    membrane_limit_point,
 )
 from multimorph.geometry import CellGeometry
 
-__all__ = ["design_costs", "fit_law_map", "law_map_costs", "law_map_spread"]
+__all__ = ["design_costs", "fit_law_map", "fit_ph_shift", "law_map_costs", "law_map_spread"]
 
 
 def design_costs(model: Any, cell: CellGeometry, fe: Any, p_max: float, *,
@@ -174,3 +175,35 @@ def law_map_spread(model: Any, *, fast: bool = True, set_name: str = LAW_MAP_SET
                 logs[key].append(math.log(a / b))
     return {f"sigma_log_{k}": float(np.sqrt(np.mean(np.square(v)))) if v else math.nan
             for k, v in logs.items()} | {f"n_{k}": len(v) for k, v in logs.items()}
+
+
+def fit_ph_shift(model: Any, *, fast: bool = True, set_name: str = LAW_MAP_SET
+                 ) -> dict[str, Any]:
+    """The factor on Ph of a bending cell whose mapped wall's membrane has no limit point
+    (stop 50): the mean of log(Ph_FE / Ph_model) over the training designs of ``set_name``
+    with such a wall and a Ph on both sides, answered with ``model`` (its ``law_map``, no
+    shift yet). Such a wall never locks, so past Pc it keeps stretching before it hardens,
+    and its effective Gent wall, which locks, reads the knee early."""
+    import warnings
+
+    from multimorph.calibrated import CalibrationWarning
+    from multimorph.calibrated._validate import compare
+
+    model, rows, _ = _fe_designs(model, set_name, holdout=False)
+    logs: list[float] = []
+    for _, cell, fe, p in rows:
+        if membrane_limit_point(cell.material) is not False:
+            continue
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", CalibrationWarning)
+            resp = model.responses([cell], p, fast=fast)[0]
+        if isinstance(resp, Exception):
+            continue
+        d = compare(resp, fe, "bending")
+        if d.ph_model is not None and d.ph_fe is not None and d.ph_model > 0 < d.ph_fe:
+            logs.append(math.log(d.ph_fe / d.ph_model))
+    n = len(logs)
+    return {"log_factor": float(np.mean(logs)) if n >= 3 else 0.0,
+            "std": float(np.std(logs, ddof=1)) if n >= 3 else math.nan,
+            "training_designs": n, "kinds": ["bending"],
+            "rule": "bending cells of a mapped wall whose membrane has no limit point"}

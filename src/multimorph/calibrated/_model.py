@@ -43,7 +43,12 @@ from multimorph.calibrated._fit import (
     emulable as is_emulable,
 )
 from multimorph.calibrated._gp import MultiOutputGP, matern52
-from multimorph.calibrated._law import KNEELESS_KINDS, law_shape, wall_activates
+from multimorph.calibrated._law import (
+    KNEELESS_KINDS,
+    law_shape,
+    membrane_limit_point,
+    wall_activates,
+)
 from multimorph.calibrated._representation import QUANTITIES, T_GRID, kind_of, paths_from_grid
 from multimorph.errors import MultimorphError, SpecError
 from multimorph.geometry import CellGeometry, TiltedCell
@@ -383,6 +388,11 @@ class CalibratedModel:
                     g = given[i].cell if isinstance(given[i], TiltedCell) else given[i]
                     res = replace(res, shear_modulus=g.mu).with_meta(
                         calibration=self._law_bands(res, law))
+                    shift = (self.law_map or {}).get("ph_shift") or {}
+                    if (kind in shift.get("kinds", ()) and shift.get("log_factor")
+                            and (law.get("wall") or {}).get("rule") == "yeoh-shape map"
+                            and membrane_limit_point(g.material) is False):
+                        res = _shifted_hardening(res, float(shift["log_factor"]))
                 out[i] = res
         # a stretching or tilted cell of a wall whose membrane does not snap (``_law``)
         for i, res in enumerate(out):
@@ -655,6 +665,30 @@ def _straight_for_tilted(r: Response, cell: TiltedCell,
                            "(plate level); the strip shear follows the Ritz rule "
                            "γ = ε sin 2β")
     return resp.with_meta(**{**r.meta, "calibration": cal})
+
+
+def _shifted_hardening(res: Response, log_factor: float) -> Response:
+    """``res`` with Ph × e^log_factor (``law_map["ph_shift"]``, fitted on FE: a bending cell
+    of a mapped wall whose membrane does not snap hardens later than its effective Gent
+    wall, which locks); κ there read on the loading curve, and no Ph where that lies past
+    the curve's end. Its ±1σ band moves with it."""
+    ch = res.characteristic
+    if ch.hardening is None:
+        return res
+    P = np.asarray(res.loading.pressure, float)
+    k = np.asarray(res.loading.curvature, float)
+    ph: float | None = max(ch.hardening * math.exp(log_factor), ch.critical or 0.0)
+    if not P.size or ph > float(np.nanmax(P)):
+        ph = None
+    at = {**ch.curvature_at, "hardening": None if ph is None else float(np.interp(ph, P, k))}
+    cal = dict(res.meta["calibration"])
+    lo, hi = cal.get("hardening_pressure_range") or (None, None)
+    f = math.exp(log_factor)
+    cal["hardening_pressure_range"] = ([None, None] if ph is None or lo is None or hi is None
+                                       else [lo * f, hi * f])
+    cal["ph_shift"] = log_factor
+    return replace(res, characteristic=replace(ch, hardening=ph, curvature_at=at)
+                   ).with_meta(calibration=cal)
 
 
 def _without_activation(res: Response, material: Any) -> Response:

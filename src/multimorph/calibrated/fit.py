@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from typing import Any
 
@@ -71,7 +72,12 @@ def fit_law_map_into_model(fast: bool = True) -> dict[str, Any] | None:
     from multimorph.calibrated._dataset import load_reference
     from multimorph.calibrated._fit import MODEL_MANIFEST
     from multimorph.calibrated._law import LAW_MAP_SET
-    from multimorph.calibrated._law_fit import fit_law_map, law_map_costs, law_map_spread
+    from multimorph.calibrated._law_fit import (
+        fit_law_map,
+        fit_ph_shift,
+        law_map_costs,
+        law_map_spread,
+    )
     from multimorph.calibrated._model import load_model
 
     if LAW_MAP_SET not in load_reference():
@@ -82,6 +88,7 @@ def fit_law_map_into_model(fast: bool = True) -> dict[str, Any] | None:
     fit = fit_law_map(law_map_costs(model, fast=fast))
     fit["variant"] = "calibrated-fast" if fast else "calibrated"
     model.law_map = fit
+    fit["ph_shift"] = fit_ph_shift(model, fast=fast)   # read before it is applied
     fit["spread"] = law_map_spread(model, fast=fast)
     manifest = json.loads(MODEL_MANIFEST.read_text())
     manifest["law_map"] = fit
@@ -93,7 +100,9 @@ def fit_law_map_into_model(fast: bool = True) -> dict[str, Any] | None:
           f"{fit['log_jm'][0]:.3f} + {fit['log_jm'][1]:.3f} ln k; cost median "
           f"{fit['cost']['median']:.3f} (each design's own best "
           f"{fit['cost']['each_design_own_best_median']:.3f}); spread of log Pc, log Ph on "
-          f"them {fit['spread']['sigma_log_pc']:.3f}, {fit['spread']['sigma_log_ph']:.3f}",
+          f"them {fit['spread']['sigma_log_pc']:.3f}, {fit['spread']['sigma_log_ph']:.3f}; "
+          f"Ph × {math.exp(fit['ph_shift']['log_factor']):.3f} on a bending cell whose wall's "
+          f"membrane does not snap ({fit['ph_shift']['training_designs']} designs)",
           file=sys.stderr, flush=True)
     return fit
 
