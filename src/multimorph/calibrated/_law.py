@@ -162,7 +162,8 @@ def effective_material(material: Any, law_map: dict[str, Any] | None
 def effective_cell(cell: CellGeometry | TiltedCell, law_map: dict[str, Any] | None
                    ) -> tuple[CellGeometry | TiltedCell, dict[str, Any] | None]:
     """``cell`` with each non-Gent elastomer replaced by its effective Gent wall (itself
-    and None where nothing is replaced)."""
+    and None where nothing is replaced). A Gent bottom at least as stiff as the wall stays
+    at least as stiff as its effective wall (``bottom_clamped`` in the record)."""
     c = cell.cell if isinstance(cell, TiltedCell) else cell
     wall, info = effective_material(c.material, law_map)
     bottom, binfo = (effective_material(c.bottom_material, law_map)
