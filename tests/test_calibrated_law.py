@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 import pytest
@@ -225,6 +226,32 @@ def test_the_librarys_elastosil_is_inside_the_support_and_neo_hooke_is_not() -> 
         assert model.responses([nh], 50e3, fast=True)[0].meta["model"] == "ritz"
 
 
+def _held_out_errors(models: tuple[Any, ...], sets: tuple[str, ...], which: str,
+                     keep: Any = None) -> list[np.ndarray]:
+    """|Δ``which``|/``which`` ("pc_error", "ph_error") of each model against FE on the
+    held-out Yeoh-walled bending cells of ``sets`` that ``keep(cell, fe)`` accepts (a
+    missing value: a miss, 1.0)."""
+    from multimorph.calibrated._fit import fe_training_data
+    from multimorph.calibrated._validate import compare, fe_response
+    from multimorph.calibrated.validate import requested_pressure
+
+    err: list[list[float]] = [[] for _ in models]
+    for name in sets:
+        data = fe_training_data("bending", set_names=(name,), ritz=False)
+        for r in np.flatnonzero(data.holdout):
+            cell, fe = data.cells[r], fe_response(data.paths[r], data.cells[r], "bending")
+            if keep is not None and not keep(cell, fe):
+                continue
+            p = requested_pressure(name, int(data.design[r]), data.paths[r])
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                got = [m.responses([cell], p, fast=True)[0] for m in models]
+            for e, resp in zip(err, got, strict=True):
+                v = getattr(compare(resp, fe, "bending"), which)
+                e.append(v if math.isfinite(v) else 1.0)
+    return [np.array(e) for e in err]
+
+
 def test_the_law_map_places_held_out_yeoh_cells_closer_to_fe_than_the_closest_gent() -> None:
     """Physics: on the Yeoh-walled FE cells the map never saw (the held-out designs of
     `yeoh2_mirror` and all of `yeoh_mirror`), Pc within 5 % of FE at the median and closer
@@ -232,26 +259,10 @@ def test_the_law_map_places_held_out_yeoh_cells_closer_to_fe_than_the_closest_ge
     5.6-10.9 % (docs/validation.md §3)."""
     import copy
 
-    from multimorph.calibrated._fit import fe_training_data
-    from multimorph.calibrated._validate import compare, fe_response
-    from multimorph.calibrated.validate import requested_pressure
-
     model = _shipped()
     closest = copy.copy(model)
     closest.law_map = None
-    err: dict[str, list[float]] = {"map": [], "closest": []}
-    for name in ("yeoh2_mirror", "yeoh_mirror"):
-        data = fe_training_data("bending", set_names=(name,), ritz=False)
-        for r in np.flatnonzero(data.holdout):
-            cell, fe = data.cells[r], fe_response(data.paths[r], data.cells[r], "bending")
-            p = requested_pressure(name, int(data.design[r]), data.paths[r])
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                got = [m.responses([cell], p, fast=True)[0] for m in (model, closest)]
-            for key, resp in zip(("map", "closest"), got, strict=True):
-                e = compare(resp, fe, "bending").pc_error
-                err[key].append(e if math.isfinite(e) else 1.0)  # no Pc: a miss
-    m, c = np.array(err["map"]), np.array(err["closest"])
+    m, c = _held_out_errors((model, closest), ("yeoh2_mirror", "yeoh_mirror"), "pc_error")
     assert len(m) >= 20
     assert np.median(m) < 0.05
     assert np.median(m) < np.median(c) and np.mean(m < c) > 0.5
@@ -364,31 +375,14 @@ def test_the_ph_factor_brings_held_out_ph_closer_to_fe() -> None:
     15 % → 5 % on the pooled held-out cells, docs/validation.md §4)."""
     import copy
 
-    from multimorph.calibrated._fit import fe_training_data
-    from multimorph.calibrated._validate import compare, fe_response
-    from multimorph.calibrated.validate import requested_pressure
-
     model = _shipped()
     if not ((model.law_map or {}).get("ph_shift") or {}).get("log_factor"):
         pytest.skip("the shipped law map has no Ph factor")
     plain = copy.copy(model)
     plain.law_map = {k: v for k, v in model.law_map.items() if k != "ph_shift"}
-    err: dict[str, list[float]] = {"shift": [], "plain": []}
-    data = fe_training_data("bending", set_names=("yeoh2_mirror",), ritz=False)
-    for r in np.flatnonzero(data.holdout):
-        cell = data.cells[r]
-        if membrane_limit_point(cell.material) is not False:
-            continue
-        fe = fe_response(data.paths[r], cell, "bending")
-        if fe.characteristic.hardening is None:
-            continue
-        p = requested_pressure("yeoh2_mirror", int(data.design[r]), data.paths[r])
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            got = [m.responses([cell], p, fast=True)[0] for m in (model, plain)]
-        for key, resp in zip(("shift", "plain"), got, strict=True):
-            e = compare(resp, fe, "bending").ph_error
-            err[key].append(e if math.isfinite(e) else 1.0)   # no Ph: a miss
-    s, p0 = np.array(err["shift"]), np.array(err["plain"])
+    s, p0 = _held_out_errors(
+        (model, plain), ("yeoh2_mirror",), "ph_error",
+        keep=lambda cell, fe: (membrane_limit_point(cell.material) is False
+                               and fe.characteristic.hardening is not None))
     assert len(s) >= 5
     assert np.median(s) < 0.10 and np.median(s) < np.median(p0)

@@ -83,35 +83,40 @@ def law_shape(material: Any) -> float:
     return float(np.dot(a, b) / np.dot(a, a)) / c10
 
 
-def membrane_limit_point(material: Any) -> bool | None:
-    """Whether a thin spherical membrane of ``material``, inflated to
-    :data:`MEMBRANE_VOLUME_RATIO` × its volume, passes a pressure maximum (snaps).
-
-    Its pressure is P = 2 H0 s(λ) / (R0 λ²), s the law's equibiaxial nominal stress at the
-    hoop stretch λ (the law's own energy function: ``Material.nominal_stress``). A Yeoh law
-    keeps the maximum up to c20/c10 = 0.0424 (neo-Hooke always, Gent above Jm ≈ 17.7).
-    None where the law's curve cannot be read (it locks inside the range: a locking wall
-    stiffens to a knee whether or not it snaps)."""
+def _membrane_pressure(material: Any) -> tuple[np.ndarray, np.ndarray] | None:
+    """Hoop stretch and pressure (up to a constant) of a thin spherical membrane of
+    ``material`` inflated to :data:`MEMBRANE_VOLUME_RATIO` × its volume: P = 2 H0 s(λ) /
+    (R0 λ²), s the law's equibiaxial nominal stress (``Material.nominal_stress``). None
+    where the law's curve cannot be read (it locks inside the range)."""
     lam = np.linspace(1.0005, MEMBRANE_VOLUME_RATIO ** (1.0 / 3.0), 600)
     try:
         s = np.asarray(material.nominal_stress("equibiaxial", lam), float)
     except Exception:   # lock-up inside the range
         return None
     p = s / lam ** 2
-    if not np.all(np.isfinite(p)):
-        return None
-    return bool(np.any(np.diff(p) < 0.0))
+    return (lam, p) if np.all(np.isfinite(p)) else None
+
+
+def membrane_limit_point(material: Any) -> bool | None:
+    """Whether a thin spherical membrane of ``material``, inflated to
+    :data:`MEMBRANE_VOLUME_RATIO` × its volume, passes a pressure maximum (snaps), read on
+    the law's own energy function (:func:`_membrane_pressure`). A Yeoh law keeps the
+    maximum up to c20/c10 = 0.0424 (neo-Hooke always, Gent above Jm ≈ 17.7). None where
+    the law's curve cannot be read (it locks inside the range: a locking wall stiffens to
+    a knee whether or not it snaps)."""
+    curve = _membrane_pressure(material)
+    return None if curve is None else bool(np.any(np.diff(curve[1]) < 0.0))
 
 
 def membrane_summary(material: Any) -> dict[str, Any]:
     """What a thin balloon of ``material`` does (:func:`membrane_limit_point`) and what
     that means for the calibrated model's stretching and tilted cells
     (:func:`wall_activates`): ``{"limit_point", "limit_stretch", "cells_activate"}``."""
-    lp = membrane_limit_point(material)
+    curve = _membrane_pressure(material)
+    lp = None if curve is None else bool(np.any(np.diff(curve[1]) < 0.0))
     at = None
-    if lp:
-        lam = np.linspace(1.0005, MEMBRANE_VOLUME_RATIO ** (1.0 / 3.0), 600)
-        p = np.asarray(material.nominal_stress("equibiaxial", lam), float) / lam ** 2
+    if curve is not None and lp:
+        lam, p = curve
         at = float(lam[int(np.argmax(np.diff(p) < 0.0))])
     return {"limit_point": lp, "limit_stretch": at,
             "cells_activate": wall_activates(material)}

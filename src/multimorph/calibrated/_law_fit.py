@@ -151,25 +151,33 @@ def fit_law_map(costs: dict[str, Any], *, set_name: str = LAW_MAP_SET) -> dict[s
                        "jm": [float(SEARCH_JM[0]), float(SEARCH_JM[-1])]}}
 
 
-def law_map_spread(model: Any, *, fast: bool = True, set_name: str = LAW_MAP_SET
-                   ) -> dict[str, float]:
-    """The spread the map adds: the RMS of log(model / FE) of Pc and Ph over the training
-    designs of ``set_name`` answered with ``model`` (its ``law_map`` set) — added to the
-    bands of a mapped wall's Pc and Ph (:func:`widen_band`), whose GP knows only Gent walls."""
+def _comparisons(model: Any, rows: list[Any], *, fast: bool, keep: Any = None) -> Any:
+    """``model``'s comparison with FE (``_validate.compare``) for each of ``rows`` (from
+    :func:`_fe_designs`) whose cell ``keep`` accepts; a design the model cannot answer is
+    left out."""
     import warnings
 
     from multimorph.calibrated import CalibrationWarning
     from multimorph.calibrated._validate import compare
 
-    model, rows, _ = _fe_designs(model, set_name, holdout=False)
-    logs: dict[str, list[float]] = {"pc": [], "ph": []}
     for _, cell, fe, p in rows:
+        if keep is not None and not keep(cell):
+            continue
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", CalibrationWarning)
             resp = model.responses([cell], p, fast=fast)[0]
-        if isinstance(resp, Exception):
-            continue
-        d = compare(resp, fe, "bending")
+        if not isinstance(resp, Exception):
+            yield compare(resp, fe, "bending")
+
+
+def law_map_spread(model: Any, *, fast: bool = True, set_name: str = LAW_MAP_SET
+                   ) -> dict[str, float]:
+    """The spread the map adds: the RMS of log(model / FE) of Pc and Ph over the training
+    designs of ``set_name`` answered with ``model`` (its ``law_map`` set) — added to the
+    bands of a mapped wall's Pc and Ph (:func:`widen_band`), whose GP knows only Gent walls."""
+    model, rows, _ = _fe_designs(model, set_name, holdout=False)
+    logs: dict[str, list[float]] = {"pc": [], "ph": []}
+    for d in _comparisons(model, rows, fast=fast):
         for key, a, b in (("pc", d.pc_model, d.pc_fe), ("ph", d.ph_model, d.ph_fe)):
             if a is not None and b is not None and a > 0 and b > 0:
                 logs[key].append(math.log(a / b))
@@ -184,24 +192,11 @@ def fit_ph_shift(model: Any, *, fast: bool = True, set_name: str = LAW_MAP_SET
     with such a wall and a Ph on both sides, answered with ``model`` (its ``law_map``, no
     shift yet). Such a wall never locks, so past Pc it keeps stretching before it hardens,
     and its effective Gent wall, which locks, reads the knee early."""
-    import warnings
-
-    from multimorph.calibrated import CalibrationWarning
-    from multimorph.calibrated._validate import compare
-
     model, rows, _ = _fe_designs(model, set_name, holdout=False)
-    logs: list[float] = []
-    for _, cell, fe, p in rows:
-        if membrane_limit_point(cell.material) is not False:
-            continue
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", CalibrationWarning)
-            resp = model.responses([cell], p, fast=fast)[0]
-        if isinstance(resp, Exception):
-            continue
-        d = compare(resp, fe, "bending")
-        if d.ph_model is not None and d.ph_fe is not None and d.ph_model > 0 < d.ph_fe:
-            logs.append(math.log(d.ph_fe / d.ph_model))
+    logs = [math.log(d.ph_fe / d.ph_model)
+            for d in _comparisons(model, rows, fast=fast,
+                                  keep=lambda c: membrane_limit_point(c.material) is False)
+            if d.ph_model is not None and d.ph_fe is not None and d.ph_model > 0 < d.ph_fe]
     n = len(logs)
     return {"log_factor": float(np.mean(logs)) if n >= 3 else 0.0,
             "std": float(np.std(logs, ddof=1)) if n >= 3 else math.nan,
