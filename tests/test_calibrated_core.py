@@ -46,6 +46,14 @@ def test_gp_interpolates_a_smooth_function_and_knows_where_it_has_no_data() -> N
 
     again = MultiOutputGP.from_arrays(gp.to_arrays("k/"), "k/")
     np.testing.assert_array_equal(again.predict(xt), mean)
+    np.testing.assert_allclose(again.predict(xt, std=True)[1], std, rtol=1e-12)
+    # the variance factor is checked once, when loaded (its solves skip SciPy's check):
+    # a damaged factor is refused there, by name, not turned into NaN bands later
+    arrays = gp.to_arrays("k/")
+    arrays["k/chol"] = arrays["k/chol"].copy()
+    arrays["k/chol"][3, 1] = np.nan
+    with pytest.raises(ValueError, match="k/chol"):
+        MultiOutputGP.from_arrays(arrays, "k/")
 
 
 def _cell() -> CellGeometry:

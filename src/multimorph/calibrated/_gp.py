@@ -28,7 +28,8 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["MultiOutputGP", "censored_residuals", "fit_gp", "matern52", "robust_noise"]
+__all__ = ["MultiOutputGP", "censored_residuals", "fit_gp", "lower_solve", "matern52",
+           "robust_noise"]
 
 
 def matern52(a: np.ndarray, b: np.ndarray, length: np.ndarray) -> np.ndarray:
@@ -87,9 +88,7 @@ class MultiOutputGP:
             return mean
         if self.chol.size == 0:
             raise ValueError("this GP was stored without its variance factor (mean only)")
-        from scipy.linalg import solve_triangular
-
-        v = solve_triangular(self.chol, ks.T, lower=True)
+        v = lower_solve(self.chol, ks.T)
         var = np.maximum(1.0 + self.noise - np.sum(v * v, axis=0), self.noise)
         return mean, np.sqrt(var)[:, None] * self.scale[None, :]
 
@@ -102,7 +101,20 @@ class MultiOutputGP:
         g = {k: np.asarray(arrays[f"{prefix}{k}"]) for k in
              ("x", "length", "noise", "mask", "weights", "coef", "scale", "chol")}
         g["noise"] = float(g["noise"])
+        if not np.all(np.isfinite(g["chol"])):
+            raise ValueError(f"{prefix}chol: the stored variance factor is not finite "
+                             "(a damaged model file)")
         return cls(**g)
+
+
+def lower_solve(chol: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """L⁻¹ rhs for a lower Cholesky factor checked finite when it was loaded
+    (:meth:`MultiOutputGP.from_arrays`). SciPy's own finiteness check reads the whole
+    (n, n) factor on every call: with the bending kind's 872 training designs that was a
+    quarter of one warm curve's time (``benchmarks/bench_calibrated.py``)."""
+    from scipy.linalg import solve_triangular
+
+    return solve_triangular(chol, rhs, lower=True, check_finite=False)
 
 
 def _linear(x: np.ndarray, y: np.ndarray, ridge: float) -> np.ndarray:

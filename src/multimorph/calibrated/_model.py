@@ -42,7 +42,7 @@ from multimorph.calibrated._fit import (
 from multimorph.calibrated._fit import (
     emulable as is_emulable,
 )
-from multimorph.calibrated._gp import MultiOutputGP, matern52
+from multimorph.calibrated._gp import MultiOutputGP, lower_solve, matern52
 from multimorph.calibrated._law import (
     KNEELESS_KINDS,
     law_shape,
@@ -287,9 +287,7 @@ class CalibratedModel:
         ks = matern52(x, k.gp.x, k.gp.length)
         lin = np.column_stack([np.ones(len(x)), x]) @ k.gp.coef
         mean = lin + (ks @ k.gp.weights) * k.gp.scale
-        from scipy.linalg import solve_triangular
-
-        v = solve_triangular(k.gp.chol, ks.T, lower=True)
+        v = lower_solve(k.gp.chol, ks.T)
         rel = np.sqrt(np.maximum(1.0 + k.gp.noise - np.sum(v * v, axis=0), k.gp.noise))
         nq = len(QUANTITIES[kind])
         J = len(T_GRID)
