@@ -106,6 +106,39 @@ def test_box_scales_groups_and_names_those_outside() -> None:
     assert box.outside({"ht/d": 0.3, "df/d": 0.1}) == {"ht/d": (0.3, 0.02, 0.2)}
 
 
+def test_box_derived_input_is_the_log_product_of_its_groups_over_the_box() -> None:
+    """``bottom/top`` = μb·hb / (μ·ht): 0 at the box's softest corner (μb/μ and hb/d
+    lowest, ht/d highest), 1 at the stiffest, linear in its logarithm between, and the
+    same for every cell with the same product; a box without it gives its groups alone."""
+    from dataclasses import replace
+
+    from multimorph.calibrated._box import DERIVED_INPUTS, GROUP_NAMES
+
+    names = GROUP_NAMES["bending"]
+    low = np.array([0.025, 0.04, 0.05, 0.4, 0.35, 0.04, 1.0, 9.0])
+    high = np.array([0.16, 0.26, 0.15, 2.5, 1.3, 0.45, 30.0, 80.0])
+    plain = Box("bending", names, low, high)
+    box = replace(plain, derived=DERIVED_INPUTS["bending"])
+    at = {n: j for j, n in enumerate(names)}
+
+    def cell(ht: float, hb: float, mub: float) -> np.ndarray:
+        v = (low + high) / 2
+        v[at["ht/d"]], v[at["hb/d"]], v[at["mu_b/mu"]] = ht, hb, mub
+        return v
+
+    soft, stiff = cell(0.16, 0.04, 1.0), cell(0.025, 0.45, 30.0)
+    x = box.inputs(np.array([soft, stiff]))
+    assert x.shape == (2, len(names) + 1)
+    np.testing.assert_allclose(x[:, :-1], plain.scaled(np.array([soft, stiff])))
+    np.testing.assert_allclose(x[:, -1], [0.0, 1.0], atol=1e-12)
+    # the geometric middle of the product's range maps to 0.5, whichever groups make it
+    mid = math.sqrt((0.04 * 1.0 / 0.16) * (0.45 * 30.0 / 0.025))
+    a = box.inputs(cell(0.05, mid * 0.05 / 10.0, 10.0)[None, :])[0, -1]
+    b = box.inputs(cell(0.1, mid * 0.1 / 4.0, 4.0)[None, :])[0, -1]
+    assert a == pytest.approx(0.5) and b == pytest.approx(0.5)
+    np.testing.assert_array_equal(plain.inputs(soft[None, :]), plain.scaled(soft[None, :]))
+
+
 def test_equivalent_jm_is_gent_own_and_places_other_laws_by_their_hardening() -> None:
     assert equivalent_jm(Material("gent", {"mu": 1e5, "jm": 33.0})) == 33.0
     # Gent's series W = μ/2 (x + x²/(2 Jm) + x³/(3 Jm²) + …), x = I1 − 3, cut after three

@@ -37,7 +37,7 @@ from typing import Any
 
 import numpy as np
 
-from multimorph.calibrated._box import GROUP_NAMES, Box, cell_groups
+from multimorph.calibrated._box import DERIVED_INPUTS, GROUP_NAMES, Box, cell_groups
 from multimorph.calibrated._dataset import (
     DATA_DIR,
     ReferenceSet,
@@ -147,9 +147,10 @@ def straight_features(grid_prediction: Any) -> np.ndarray:
 
 def model_inputs(box: Box, groups: np.ndarray, kfeats: np.ndarray, fmean: np.ndarray,
                  fstd: np.ndarray, end: np.ndarray | float | None = None) -> np.ndarray:
-    """GP inputs: scaled groups and standardised Ritz features, and with ``end`` the cell's
-    end condition (0 plate, 1 mirror: :func:`end_column`)."""
-    cols = [box.scaled(groups), (kfeats - fmean) / fstd]
+    """GP inputs: scaled groups (and the box's derived inputs, :meth:`Box.inputs`) and
+    standardised Ritz features, and with ``end`` the cell's end condition (0 plate, 1
+    mirror: :func:`end_column`)."""
+    cols = [box.inputs(groups), (kfeats - fmean) / fstd]
     if end is not None:
         cols.append(np.broadcast_to(np.asarray(end, float), (len(groups),))[:, None])
     return np.column_stack(cols)
@@ -464,7 +465,8 @@ def add_part(part: str, kinds: tuple[str, ...] = ("bending",), *,
             p = f"{prefix}{kind}/"
             info = manifest[key][kind]
             box = Box(kind, tuple(info["groups"]), np.asarray(arrays[f"{p}box_low"]),
-                      np.asarray(arrays[f"{p}box_high"]))
+                      np.asarray(arrays[f"{p}box_high"]),
+                      tuple(info.get("derived_inputs", ())))
             kf = data_features(d)
             train = ~d.holdout & np.all(np.isfinite(kf), axis=1)
             gp = PARTS[part](d, box, np.asarray(arrays[f"{p}feature_mean"]),
@@ -665,12 +667,14 @@ def _fit_one(kind: str, data: TrainingData, prefix: str, arrays: dict[str, np.nd
     """Fit one kind's GP on ``data`` and store it under ``prefix`` (unless too few designs)."""
     kf = data_features(data)
     train = ~data.holdout & np.all(np.isfinite(kf), axis=1)
-    n_inputs = len(GROUP_NAMES[kind]) + kf.shape[1] + (end_column(data) is not None)
+    n_inputs = (len(GROUP_NAMES[kind]) + len(DERIVED_INPUTS.get(kind, ())) + kf.shape[1]
+                + (end_column(data) is not None))
     if train.sum() < MIN_DESIGNS_PER_INPUT * n_inputs:
         _log(f"{kind}: only {int(train.sum())} training designs for {n_inputs} inputs "
              f"(at least {MIN_DESIGNS_PER_INPUT * n_inputs}); not fitted")
         return
-    box = Box.from_spec(kind, reference_spec(KIND_SETS[kind][0]))
+    box = replace(Box.from_spec(kind, reference_spec(KIND_SETS[kind][0])),
+                  derived=DERIVED_INPUTS.get(kind, ()))
     gp, fmean, fstd = fit_kind(data, box)
     pgp = fit_pressure(data, box, fmean, fstd, train=train)
     p = f"{prefix}{kind}/"
@@ -697,6 +701,7 @@ def _fit_one(kind: str, data: TrainingData, prefix: str, arrays: dict[str, np.nd
         "pressure": _pressure_info(data, train, pgp),
         **({"signal": _signal_info(int(train.sum()), sgp)} if sgp is not None else {}),
         "noise": gp.noise, "groups": list(GROUP_NAMES[kind]),
+        **({"derived_inputs": list(box.derived)} if box.derived else {}),
         "features": ("emulated" if prefix else "ritz") if data.straight is None else (
             "the straight cell's calibrated " + ", ".join(STRAIGHT_FEATURES)
             + " (plate level) and the "

@@ -138,7 +138,8 @@ class CalibratedModel:
             for kind, info in manifest.get(key, {}).items():
                 p = f"{prefix}{kind}/"
                 box = Box(kind, tuple(info["groups"]), np.asarray(arrays[f"{p}box_low"]),
-                          np.asarray(arrays[f"{p}box_high"]))
+                          np.asarray(arrays[f"{p}box_high"]),
+                          tuple(info.get("derived_inputs", ())))
                 anchors = {name: MultiOutputGP.from_arrays(arrays, f"{p}anchor_{name}/")
                            for name in ANCHORS if f"{p}anchor_{name}/x" in arrays}
                 pressure = (MultiOutputGP.from_arrays(arrays, f"{p}pressure/")
