@@ -360,3 +360,31 @@ def test_the_shipped_model_names_every_set_its_kinds_train_on():
     for key in ("kinds", "fast_kinds"):
         for kind, info in manifest[key].items():
             assert set(KIND_SETS[kind]) <= set(info["sets"]), (key, kind)
+
+
+def test_the_bending_kind_takes_the_derived_input_its_manifest_names() -> None:
+    """Since stop 51 the bending GPs take μb·hb / (μ·ht) after the groups
+    (``_box.DERIVED_INPUTS``): the shipped manifest names it for both variants, the
+    loaded box appends it, and every GP of the kind was fitted on inputs of that width —
+    a model file and its loader that disagreed would predict from shifted inputs. Two
+    cells with the same groups but for a bottom swapped against its thickness (the same
+    product) get the same derived input and different groups."""
+    from multimorph.calibrated._box import DERIVED_INPUTS, cell_groups
+
+    model = load_model()
+    for variant in (model.kinds, model.fast_kinds):
+        k = variant["bending"]
+        assert k.box.derived == DERIVED_INPUTS["bending"] == ("bottom/top",)
+        width = len(k.box.names) + len(k.box.derived) + len(k.fmean) + (k.end_input is not None)
+        gps = [k.gp, k.pressure, k.signal, *k.anchors.values()]
+        assert all(g is not None and g.x.shape[1] == width for g in gps)
+    assert model.kinds["stretching"].box.derived == ()
+    from multimorph.materials import Material
+
+    wall = Material("gent", {"mu": 1e5, "jm": 30.0})
+    a = CellGeometry(20e-3, 10e-3, 8e-3, 1e-3, 2e-3, 2e-3, 2e-3, material=wall,
+                     bottom_material=wall.scaled(8.0))
+    b = replace(a, bottom_wall=4e-3, bottom_material=wall.scaled(4.0))
+    box = model.kinds["bending"].box
+    xa, xb = (box.inputs(box.values_of(cell_groups(c))[None, :])[0] for c in (a, b))
+    assert xa[-1] == pytest.approx(xb[-1]) and not np.allclose(xa[:-1], xb[:-1])

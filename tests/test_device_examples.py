@@ -127,10 +127,15 @@ def test_earlier_module_is_hardened_when_later_activates(case):
     # later module is near its fastest within ±5 % of its Pc. A tilted cell's own path
     # (since stop 41) may put its steepest twist further up (the gripper's twister: its
     # path reads 38 kPa, the anchor 31.5 kPa as the FE's): there its twist rate at Pc is
-    # at least twice its mean rate below Pc (its knee has begun).
+    # at least twice its mean rate below Pc (its knee has begun). That holds for every
+    # tilted cell (stop 51): its twist speeds up from Pc to Ph (in FE too: the gripper's
+    # strip cell 1.6° / kPa below 30 kPa, 4.8° / kPa above), so its fastest point is near
+    # Ph, not Pc, whether or not its path's reading of Pc lies within 5 % of the anchor
+    # (stop 50's model 5.3 % apart, stop 51's 4.3 %, the twist curves alike).
     anchors = (later.response.meta.get("calibration") or {}).get("anchors") or {}
     own = anchors.get("path_critical_pressure")
-    if own is None or abs(own / pc_late - 1.0) <= 0.05:
+    tilted = later.module.kind == "twisting"
+    if not tilted and (own is None or abs(own / pc_late - 1.0) <= 0.05):
         assert max(rate_fraction(later, p)
                    for p in np.linspace(0.95 * pc_late, 1.05 * pc_late, 11)) \
             > HARDENED_FRACTION
