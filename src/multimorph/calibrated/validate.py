@@ -44,6 +44,9 @@ CHECKS = (("bending", "bending"), ("bending", "bending_narrow"), ("bending", "be
           ("bending", "bending_mirror"), ("bending", "bending_narrow_mirror"),
           ("bending", "bending_single_mirror"), ("bending", "bending_single2_mirror"),
           ("bending", "bending3_mirror"), ("bending", "bending_softbottom_mirror"),
+          # the weak-bottom refinement (stop 51; training data once a refit takes it in:
+          # its held-out fifth checked, as the other training sets')
+          ("bending", "bending_lowbt_mirror"),
           ("bending", "grid24_mirror"), ("bending", "yeoh_mirror"),
           # Yeoh walls over the box (stop 49): the law map's held-out fifth; a second
           # sample the map never saw (stop 50)
