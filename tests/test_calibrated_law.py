@@ -87,6 +87,35 @@ def test_fit_law_map_finds_the_line_through_the_designs_cost_minima() -> None:
     assert fit["cost"]["median"] < 3 * np.diff(ls)[0] + np.diff(lj)[0]
 
 
+
+@pytest.mark.parametrize("seed", [0, 1, 5])
+def test_fit_law_map_crosses_a_ridge_of_mu_against_jm_to_the_best_line(seed: int) -> None:
+    """Synthetic costs flat along a ridge (a stiffer μ traded for a lower Jm, as on the real
+    designs) with one narrow distractor well per design, so the line through the designs'
+    own best walls starts far off: the fit's mean cost is no worse than the true line's
+    (the three starts of stops 49–51 stopped above it on these seeds; stop 52's refit on
+    the real designs stopped at 0.2865 where 0.2815 was)."""
+    from scipy.interpolate import RegularGridInterpolator
+
+    rng = np.random.default_rng(seed)
+    ls, lj = np.log(SEARCH_MU_FACTOR), np.log(SEARCH_JM)
+    shapes = np.geomspace(0.006, 0.18, 16)
+    true = (0.15, 0.04, 2.6, -0.35)
+    cost = []
+    for k in shapes:
+        a = true[0] + true[1] * math.log(k)
+        b = true[2] + true[3] * math.log(k)
+        ridge = (ls[:, None] - a) - 0.3 * (lj[None, :] - b)
+        c = 3 * np.abs(ridge) + 0.15 * np.abs(lj[None, :] - b)
+        c[rng.integers(len(ls)), rng.integers(len(lj))] -= 0.5 + 0.5 * rng.random()
+        cost.append(c)
+    fit = fit_law_map({"design": np.arange(16), "shape": shapes, "cost": np.array(cost)})
+    at_true = np.mean([RegularGridInterpolator((ls, lj), c)(
+        (np.clip(true[0] + true[1] * math.log(k), ls[0], ls[-1]),
+         np.clip(true[2] + true[3] * math.log(k), lj[0], lj[-1])))
+        for c, k in zip(cost, shapes, strict=True)])
+    assert fit["cost"]["mean"] <= at_true + 1e-3
+
 # ------------------------------------------------ whether a placed stretching cell activates
 def _yeoh_sphere_snaps(k: float) -> bool:
     """Closed form, independent of the library: a thin Yeoh sphere (c30 = 0) has
