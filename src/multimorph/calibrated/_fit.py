@@ -69,11 +69,13 @@ MODEL_MANIFEST = DATA_DIR / "model.json"
 #: 4.6 / 10.3 %; docs/validation.md §3, stop 33). Since stop 47 with a third sample of the
 #: box, `bending3_mirror` (its training four-fifths; docs/validation.md §4 stop 47); since
 #: stop 48 with the soft-bottom refinement, `bending_softbottom_mirror` (μb/μ 1.1–3.0,
-#: where the curves missed most; docs/validation.md §4 stop 48).
+#: where the curves missed most; docs/validation.md §4 stop 48); since stop 52 with
+#: `bending_lowbt_mirror` (a weak bottom against the top wall, μb·hb/(μ·ht) mostly below
+#: 3.5, where the curves still missed after stop 51; docs/validation.md §4 stop 52).
 KIND_SETS = {"bending": ("bending", "bending_narrow", "bending_single", "bending_single2",
                          "bending_mirror", "bending_narrow_mirror", "bending_single_mirror",
                          "bending_single2_mirror", "bending3_mirror",
-                         "bending_softbottom_mirror"),
+                         "bending_softbottom_mirror", "bending_lowbt_mirror"),
              "stretching": ("stretching_mirror", "stretching_narrow_mirror",
                             "stretching2_mirror"),
              "twisting": ("twisting", "twisting2", "twisting_narrow")}

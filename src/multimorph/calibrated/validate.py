@@ -68,13 +68,15 @@ CHECKS = (("bending", "bending"), ("bending", "bending_narrow"), ("bending", "be
 #: that never chose between fits (the held-out fifths did, since stop 33). `twisting3` is
 #: never trained on (all its designs are unseen), pooled with the held-out fifths in a row
 #: of its own. Since stop 47 the mirror pool holds `bending3_mirror`'s held-out fifth too
-#: (a training set since then), since stop 48 `bending_softbottom_mirror`'s. Since stop
+#: (a training set since then), since stop 48 `bending_softbottom_mirror`'s, since stop 52
+#: `bending_lowbt_mirror`'s. Since stop
 #: 49 the Yeoh walls (a law the GPs never saw, placed by the law map, ``_law``): all of
 #: `yeoh_mirror` and the held-out fifth of `yeoh2_mirror` (whose rest the map is fitted on);
 #: since stop 50 with all of `yeoh3_mirror` too, a second sample the map never saw.
 POOLS = (("bending", "mirror ends (the cell inside a module)",
           ("bending_mirror", "bending_narrow_mirror", "bending_single_mirror",
-           "bending_single2_mirror", "bending3_mirror", "bending_softbottom_mirror")),
+           "bending_single2_mirror", "bending3_mirror", "bending_softbottom_mirror",
+           "bending_lowbt_mirror")),
          ("bending", "mirror ends, never used to choose a fit", ("bending2_mirror",
                                                                 "bending_lowjm_mirror")),
          ("bending", "plate ends", ("bending", "bending_narrow", "bending_single",
