@@ -91,6 +91,7 @@ def test_every_reference_spec_parses_and_covers_its_kind(name: str) -> None:
                                         "bending_single2": 40,
                                         "bending_single2_mirror": 40,
                                         "bending_single_mirror": 40,
+                                        "bending_single3_mirror": 40,
                                         "bending_narrow_mirror": 40,
                                         "stretching_narrow_mirror": 25,
                                         "bending_lowjm_mirror": 50,
@@ -100,7 +101,8 @@ def test_every_reference_spec_parses_and_covers_its_kind(name: str) -> None:
                                         "yeoh_twisting": 25,
                                         "yeoh3_mirror": 100}.get(name, 100)
     if name.endswith(("_narrow", "_single", "_single2", "_lowjm_mirror",
-                      "_softbottom_mirror", "_lowbt_mirror")):
+                      "_softbottom_mirror", "_lowbt_mirror",
+                      "_single3_mirror")):
         # a refinement set lies inside its kind's calibrated box (the main set's)
         from multimorph.calibrated._box import Box, cell_groups
 

@@ -37,7 +37,8 @@ ORDER = ("grid24", "yeoh", "bending_narrow", "stretching_narrow", "bending_singl
          "bending_single_mirror", "bending_narrow_mirror", "twisting2", "stretching2_mirror",
          "twisting_narrow", "twisting3", "bending_lowjm_mirror",
          "bending2_mirror", "bending3_mirror", "bending_softbottom_mirror", "yeoh2_mirror",
-         "yeoh_stretching_mirror", "yeoh_twisting", "yeoh3_mirror", "bending_lowbt_mirror")
+         "yeoh_stretching_mirror", "yeoh_twisting", "yeoh3_mirror", "bending_lowbt_mirror",
+         "bending_single3_mirror")
 
 
 def _log(msg: str) -> None:

@@ -47,6 +47,8 @@ CHECKS = (("bending", "bending"), ("bending", "bending_narrow"), ("bending", "be
           # the weak-bottom refinement (stop 51; training data once a refit takes it in:
           # its held-out fifth checked, as the other training sets')
           ("bending", "bending_lowbt_mirror"),
+          # a third one-elastomer sample (stop 52; training data once a refit takes it in)
+          ("bending", "bending_single3_mirror"),
           ("bending", "grid24_mirror"), ("bending", "yeoh_mirror"),
           # Yeoh walls over the box (stop 49): the law map's held-out fifth; a second
           # sample the map never saw (stop 50)
