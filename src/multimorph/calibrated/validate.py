@@ -44,8 +44,8 @@ CHECKS = (("bending", "bending"), ("bending", "bending_narrow"), ("bending", "be
           ("bending", "bending_mirror"), ("bending", "bending_narrow_mirror"),
           ("bending", "bending_single_mirror"), ("bending", "bending_single2_mirror"),
           ("bending", "bending3_mirror"), ("bending", "bending_softbottom_mirror"),
-          # the weak-bottom refinement (stop 51; training data once a refit takes it in:
-          # its held-out fifth checked, as the other training sets')
+          # the weak-bottom refinement (stop 51; in the fit since stop 52: its held-out
+          # fifth checked, as the other training sets')
           ("bending", "bending_lowbt_mirror"),
           # a third one-elastomer sample (stop 52; training data once a refit takes it in)
           ("bending", "bending_single3_mirror"),
