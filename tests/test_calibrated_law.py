@@ -68,16 +68,25 @@ def test_a_gent_wall_is_itself_and_a_yeoh_wall_its_mapped_gent_wall() -> None:
     assert effective_material(yeoh, None)[1] is None
 
 
+#: The synthetic law map of the fit tests: ln s, ln Jm_eff linear in ln k.
+TRUE_LINE = (0.15, 0.04, 2.6, -0.35)
+
+
+def _true_wall(k: float) -> tuple[float, float]:
+    """(ln s, ln Jm_eff) of :data:`TRUE_LINE` at shape ``k``."""
+    return (TRUE_LINE[0] + TRUE_LINE[1] * math.log(k),
+            TRUE_LINE[2] + TRUE_LINE[3] * math.log(k))
+
+
 def test_fit_law_map_finds_the_line_through_the_designs_cost_minima() -> None:
     """Synthetic costs: each design's cost is a bowl around the wall the true line gives
     its shape; the fit recovers the line."""
     ls, lj = np.log(SEARCH_MU_FACTOR), np.log(SEARCH_JM)
     shapes = np.geomspace(0.006, 0.18, 12)
-    true = (0.15, 0.04, 2.6, -0.35)
+    true = TRUE_LINE
     cost = []
     for k in shapes:
-        a = true[0] + true[1] * math.log(k)
-        b = true[2] + true[3] * math.log(k)
+        a, b = _true_wall(k)
         cost.append(np.abs(ls[:, None] - a) * 3 + np.abs(lj[None, :] - b))
     fit = fit_law_map({"design": np.arange(12), "shape": shapes, "cost": np.array(cost)})
     assert fit["log_mu_factor"] == pytest.approx(true[:2], abs=0.02)
@@ -85,7 +94,6 @@ def test_fit_law_map_finds_the_line_through_the_designs_cost_minima() -> None:
     assert fit["shape_range"] == pytest.approx([0.006, 0.18])
     # the costs are read off the grid by bilinear interpolation: within a grid step of 0
     assert fit["cost"]["median"] < 3 * np.diff(ls)[0] + np.diff(lj)[0]
-
 
 
 @pytest.mark.parametrize("seed", [0, 1, 5])
@@ -100,19 +108,16 @@ def test_fit_law_map_crosses_a_ridge_of_mu_against_jm_to_the_best_line(seed: int
     rng = np.random.default_rng(seed)
     ls, lj = np.log(SEARCH_MU_FACTOR), np.log(SEARCH_JM)
     shapes = np.geomspace(0.006, 0.18, 16)
-    true = (0.15, 0.04, 2.6, -0.35)
     cost = []
     for k in shapes:
-        a = true[0] + true[1] * math.log(k)
-        b = true[2] + true[3] * math.log(k)
+        a, b = _true_wall(k)
         ridge = (ls[:, None] - a) - 0.3 * (lj[None, :] - b)
         c = 3 * np.abs(ridge) + 0.15 * np.abs(lj[None, :] - b)
         c[rng.integers(len(ls)), rng.integers(len(lj))] -= 0.5 + 0.5 * rng.random()
         cost.append(c)
     fit = fit_law_map({"design": np.arange(16), "shape": shapes, "cost": np.array(cost)})
     at_true = np.mean([RegularGridInterpolator((ls, lj), c)(
-        (np.clip(true[0] + true[1] * math.log(k), ls[0], ls[-1]),
-         np.clip(true[2] + true[3] * math.log(k), lj[0], lj[-1])))
+        (np.clip(_true_wall(k)[0], ls[0], ls[-1]), np.clip(_true_wall(k)[1], lj[0], lj[-1])))
         for c, k in zip(cost, shapes, strict=True)])
     assert fit["cost"]["mean"] <= at_true + 1e-3
 
