@@ -139,6 +139,44 @@ def test_box_derived_input_is_the_log_product_of_its_groups_over_the_box() -> No
     np.testing.assert_array_equal(plain.inputs(soft[None, :]), plain.scaled(soft[None, :]))
 
 
+def test_box_top_share_and_side_top_are_the_walls_membrane_stiffness_ratios() -> None:
+    """``top share`` = μ·ht / (μ·ht + μb·hb): ½ where the two membranes are equally stiff,
+    falling as the bottom stiffens, and the same for every cell with the same product.
+    ``side/top`` = (ws / hc) / (ht / wc) with hc, wc the chamber's own height and width
+    (the geometry's ``chamber_height``, ``chamber_width``): its log mapped linearly from
+    ``SIDE_TOP_LOG_RANGE``, so a side wall twice as stiff per span moves it by ln 2 over
+    that range's width."""
+    from dataclasses import replace
+
+    from multimorph.calibrated._box import GROUP_NAMES, SIDE_TOP_LOG_RANGE, cell_groups
+
+    names = GROUP_NAMES["bending"]
+    low = np.array([0.025, 0.04, 0.05, 0.4, 0.35, 0.04, 1.0, 9.0])
+    high = np.array([0.16, 0.26, 0.15, 2.5, 1.3, 0.45, 30.0, 80.0])
+    box = Box("bending", names, low, high, ("top share", "side/top"))
+    gent = Material("gent", {"mu": 1e5, "jm": 20.0})
+
+    def inputs(cell: CellGeometry) -> np.ndarray:
+        g = cell_groups(cell)
+        return box.inputs(np.array([[g[n] for n in names]]))[0, -2:]
+
+    d = 20e-3
+    base = CellGeometry(d, 12e-3, 10e-3, 1e-3, 1e-3, 1.5e-3, 2e-3, material=gent)
+    share, side = inputs(base)
+    assert share == pytest.approx(0.5)                   # same law, same thickness
+    stiff = replace(base, bottom_material=Material("gent", {"mu": 3e5, "jm": 20.0}))
+    assert inputs(stiff)[0] == pytest.approx(0.25)       # μb·hb = 3 μ·ht
+    thick = replace(base, bottom_wall=3e-3)               # the same product by thickness
+    assert inputs(thick)[0] == pytest.approx(0.25)
+    ratio = (base.side_wall / base.chamber_height) / (base.top_wall / base.chamber_width)
+    lo, hi = SIDE_TOP_LOG_RANGE
+    assert side == pytest.approx((math.log(ratio) - lo) / (hi - lo))
+    wider_side = replace(base, side_wall=3e-3)            # ws × 2, wc 9 → 6 mm
+    r2 = (3e-3 / base.chamber_height) / (base.top_wall / wider_side.chamber_width)
+    assert inputs(wider_side)[1] - side == pytest.approx(math.log(r2 / ratio) / (hi - lo))
+    assert r2 / ratio == pytest.approx(2.0 * 6.0 / 9.0)
+
+
 def test_equivalent_jm_is_gent_own_and_places_other_laws_by_their_hardening() -> None:
     assert equivalent_jm(Material("gent", {"mu": 1e5, "jm": 33.0})) == 33.0
     # Gent's series W = μ/2 (x + x²/(2 Jm) + x³/(3 Jm²) + …), x = I1 − 3, cut after three
