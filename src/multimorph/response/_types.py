@@ -65,7 +65,7 @@ class EquilibriumPath:
                 n = arr.shape[0]
             elif arr.shape[0] != n:
                 raise MultimorphError(f"path.{name}: length {arr.shape[0]} != {n}")
-            if name != "stable" and not np.all(np.isfinite(arr)):
+            if name != "stable" and not np.isfinite(arr).all():
                 raise MultimorphError(f"path.{name}: contains NaN or inf")
             arr.setflags(write=False)
             object.__setattr__(self, name, arr)
