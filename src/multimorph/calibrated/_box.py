@@ -39,8 +39,11 @@ _SPEC_NAME = {"jm": "cell.material.jm"}
 #: no single group split them so (μb/μ's lowest quarter 43 %, hb/d's 26 %, ht/d's 12 %).
 #: Log-scaled to the box's own range of it (its corners).
 #:
+#: Defined since stop 53 and not yet taken by the shipped kind (a refit on all three is the
+#: candidate on branch ``derived-inputs``: docs/validation.md §4 stop 53):
+#:
 #: ``top share``: μ·ht / (μ·ht + μb·hb) = 1 / (1 + bottom/top), the top wall's share of the
-#: two membranes' stiffness (stop 53). The same ratio, but bounded and fine where the bottom
+#: two membranes' stiffness. The same ratio, but bounded and fine where the bottom
 #: is weak: ``bottom/top`` spans a factor of ~2,000 over the box (0.25–540), so the factor
 #: of ~3 over which a held-out cell goes from bending back (0.7) to bending one way (2) is a
 #: seventh of its range, shorter than the GPs' length scale along it (stop 52's signal
