@@ -55,9 +55,9 @@ _SPEC_NAME = {"jm": "cell.material.jm"}
 #: Its logarithm mapped from :data:`SIDE_TOP_LOG_RANGE`.
 DERIVED_INPUTS: dict[str, tuple[str, ...]] = {"bending": ("bottom/top",)}
 #: ``side/top``'s logarithm is mapped to [0, 1] from this range: it covers the FE data set's
-#: bending designs (−2.04 … 4.15 over the 1,366 of stop 53); a chamber is at least 0.1 d
-#: high and wide (the reference specs' ``min_chamber``), which bounds it on any valid cell
-#: of the box to about the same.
+#: bending designs (−2.04 … 4.15 over the 1,366 of stop 53). It is a scale, not a bound: a
+#: valid cell of the box can lie beyond it (thick side walls round a narrow chamber under a
+#: thin top, up to about ln 5.3), and its input then lies a little outside [0, 1].
 SIDE_TOP_LOG_RANGE = (-2.5, 4.5)
 
 
