@@ -118,7 +118,8 @@ def test_box_derived_input_is_the_log_product_of_its_groups_over_the_box() -> No
     low = np.array([0.025, 0.04, 0.05, 0.4, 0.35, 0.04, 1.0, 9.0])
     high = np.array([0.16, 0.26, 0.15, 2.5, 1.3, 0.45, 30.0, 80.0])
     plain = Box("bending", names, low, high)
-    box = replace(plain, derived=DERIVED_INPUTS["bending"])
+    assert DERIVED_INPUTS["bending"][0] == "bottom/top"
+    box = replace(plain, derived=("bottom/top",))
     at = {n: j for j, n in enumerate(names)}
 
     def cell(ht: float, hb: float, mub: float) -> np.ndarray:
