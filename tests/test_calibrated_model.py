@@ -369,7 +369,7 @@ def test_the_shipped_model_names_every_set_its_kinds_train_on():
 
 
 def test_the_bending_kind_takes_the_derived_input_its_manifest_names() -> None:
-    """Since stop 51 the bending GPs take μb·hb / (μ·ht) after the groups, since stop 53
+    """Since stop 51 the bending GPs take μb·hb / (μ·ht) after the groups, since stop 54
     also the top wall's share of the two membranes' stiffness and the side walls' over
     the top wall's (``_box.DERIVED_INPUTS``): the shipped manifest names them for both
     variants, the loaded box appends them, and every GP of the kind was fitted on inputs
