@@ -483,3 +483,46 @@ def test_a_design_stopped_at_its_pressure_limit_is_censored_past_its_end() -> No
                                                      [False] * 4, [False] * 4])
     assert low[0, 2] == pytest.approx(math.log(2.0))
     np.testing.assert_array_equal(np.isfinite(data.lower(np.array([0]))), [[0, 0, 1, 1]])
+
+
+def test_a_cross_validated_kernel_lowers_the_leave_one_out_loss_and_is_a_gp() -> None:
+    """fit_gp_cv: its kernel's mean leave-one-out loss (closed form) is at most the
+    likelihood kernel's and the start's; the stored GP is that kernel's posterior (mean at
+    new inputs = the closed-form one, amplitude rᵀK⁻¹r / n) and predicts the function."""
+    from scipy.linalg import cho_factor, cho_solve
+
+    from multimorph.calibrated._gp import CV_LOSS_SOFTNESS, _linear, fit_gp_cv
+
+    rng = np.random.default_rng(3)
+    n = 90
+    x = rng.uniform(0, 1, (n, 3))
+
+    def f(z: np.ndarray) -> np.ndarray:
+        return np.sin(3.0 * z[:, 0]) + 0.5 * z[:, 1] ** 2   # z[:, 2] does nothing
+
+    y = f(x) + 0.02 * rng.standard_normal(n)
+    cv = fit_gp_cv(x, y)
+    ml = fit_gp(x, y[:, None], np.ones((n, 1), bool), restarts=1)
+    coef = _linear(x, y, 1e-3)
+    r = y - np.column_stack([np.ones(n), x]) @ coef
+    r = r / r.std()
+
+    def loss(length: np.ndarray, noise: float) -> float:
+        c = cho_factor(matern52(x, x, length) + noise * np.eye(n), lower=True)
+        e = cho_solve(c, r) / np.diag(cho_solve(c, np.eye(n)))
+        return float(np.mean(np.sqrt(e * e + CV_LOSS_SOFTNESS ** 2)))
+
+    own = loss(cv.length, cv.noise)
+    assert own <= loss(np.ones(3), 1e-2) + 1e-9
+    assert own <= loss(ml.length, ml.noise) + 1e-6
+    assert cv.length[2] > 3.0 * cv.length[0]   # the idle input against the sine's
+    xt = rng.uniform(0.1, 0.9, (40, 3))
+    assert np.abs(cv.predict(xt)[:, 0] - f(xt)).max() < 0.05
+    sd = float(np.std(y - np.column_stack([np.ones(n), x]) @ coef))
+    a = np.linalg.solve(matern52(x, x, cv.length) + cv.noise * np.eye(n), r)
+    mean = (np.column_stack([np.ones(len(xt)), xt]) @ coef
+            + matern52(xt, x, cv.length) @ a * sd)
+    np.testing.assert_allclose(cv.predict(xt)[:, 0], mean, atol=1e-8)
+    assert cv.scale[0] == pytest.approx(sd * math.sqrt(float(r @ a) / n), rel=1e-9)
+    far = cv.predict(np.full((1, 3), 1e3), std=True)[1][0, 0]   # no data near: the prior
+    assert far == pytest.approx(cv.scale[0] * math.sqrt(1.0 + cv.noise), rel=1e-6)

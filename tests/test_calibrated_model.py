@@ -397,3 +397,36 @@ def test_the_bending_kind_takes_the_derived_input_its_manifest_names() -> None:
     xa, xb = (box.inputs(box.values_of(cell_groups(c))[None, :])[0] for c in (a, b))
     n = len(box.names)
     assert xa[n:n + 2] == pytest.approx(xb[n:n + 2]) and not np.allclose(xa[:n], xb[:n])
+
+
+def test_the_tilted_pc_anchor_is_the_mean_of_its_likelihood_and_cross_validated_gps() -> None:
+    """Since stop 55 the twisting kind's Pc anchor is two GPs (``_fit.ANCHOR_CV``): the
+    shipped model has the cross-validated one for Pc alone, in both variants, and the
+    predicted log Pc of tilted cells is the mean of the two GPs' (each predicted by a copy
+    of the model that has only it), its std their equal mixture's: at least the smaller
+    of the two and at least half their difference."""
+    from multimorph.calibrated._fit import ANCHOR_CV, load_reference
+
+    assert ANCHOR_CV == {"twisting": ("pc",)}
+    model = load_model()
+    ref = load_reference()["twisting"]
+    cells = [ref.cell(int(r)) for r in np.flatnonzero(ref.ok)[:12]]
+    for fast, variant in ((False, "kinds"), (True, "fast_kinds")):
+        k = getattr(model, variant)["twisting"]
+        assert set(k.anchors) == {"pc", "pc_cv", "ph"}
+        assert all("_cv" not in name for name in getattr(model, variant)["bending"].anchors)
+        both = model.grid(cells, fast=fast)
+        one = []
+        for name in ("pc", "pc_cv"):
+            m = copy.copy(model)
+            setattr(m, variant, {**getattr(model, variant), "twisting": replace(
+                k, anchors={"pc": k.anchors[name], "ph": k.anchors["ph"]})})
+            one.append(m.grid(cells, fast=fast))
+        a, b = (g.anchors[:, 0] for g in one)
+        sa, sb = (g.anchor_std[:, 0] for g in one)
+        assert np.abs(a - b).max() > 1e-3   # two different GPs
+        np.testing.assert_allclose(both.anchors[:, 0], 0.5 * (a + b), atol=1e-12)
+        np.testing.assert_allclose(both.anchors[:, 1], one[0].anchors[:, 1], atol=1e-12)
+        s = both.anchor_std[:, 0]
+        assert np.all(s >= np.minimum(sa, sb) - 1e-12) and np.all(s >= 0.5 * np.abs(a - b))
+

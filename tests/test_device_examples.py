@@ -152,7 +152,8 @@ def test_gripper_twists_after_its_fingers_have_bent():
     """The fingers end their bend near 30 kPa; from there to 40 kPa the twister turns faster
     than it did before, while the hardened fingers add little (the paper's bend, then
     twist), on the calibrated model the example was designed on. (The fast variant keeps
-    the order, fingers 28.9 then twister 30.6 kPa; the demo's test asserts it.)
+    the order, fingers 28.9 then twister 30.8 kPa since stop 55; the demo's test asserts
+    it.)
 
     Since stop 37 the example is the FE-verified design; since stop 54 the one designed and
     verified on stop 54's model (14 Dragon Skin 10 finger cells, a 4-cell twister at 20.8°).

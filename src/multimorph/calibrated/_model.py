@@ -79,6 +79,21 @@ class CalibrationWarning(UserWarning):
     """A cell outside the calibrated model's support: answered by the Ritz model."""
 
 
+def _anchor_prediction(gps: dict[str, MultiOutputGP], name: str, x: np.ndarray,
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """An anchor's predicted log(P/μ) and its std at inputs ``x``: its GP's, or with a
+    cross-validated twin (``<name>_cv``, ``_fit.ANCHOR_CV``) the mean of the two, with
+    the std of their equal mixture (each one's variance and half their difference)."""
+    m, sd = gps[name].predict(x, std=True)
+    twin = gps.get(f"{name}_cv")
+    if twin is None:
+        return m[:, 0], sd[:, 0]
+    m2, sd2 = twin.predict(x, std=True)
+    mean = 0.5 * (m[:, 0] + m2[:, 0])
+    var = 0.5 * (sd[:, 0] ** 2 + sd2[:, 0] ** 2) + 0.25 * (m[:, 0] - m2[:, 0]) ** 2
+    return mean, np.sqrt(var)
+
+
 @dataclass(frozen=True, eq=False)
 class _Kind:
     kind: str
@@ -86,7 +101,8 @@ class _Kind:
     box: Box
     fmean: np.ndarray
     fstd: np.ndarray
-    #: the anchor GPs (log Pc/μ, log Ph/μ of FE) by name; empty in an older model file
+    #: the anchor GPs (log Pc/μ, log Ph/μ of FE) by name (and a cross-validated twin,
+    #: ``<name>_cv``, where ``_fit.ANCHOR_CV`` names the kind); empty in an older model file
     anchors: dict[str, MultiOutputGP]
     #: log(P/μ) on the grid with a kernel of its own (``_fit.fit_pressure``); None in an
     #: older model file (the path GP's pressure then)
@@ -100,8 +116,12 @@ class _Kind:
     #: the signal over t on the grid with a kernel of its own fitted past the snap
     #: (``_fit.fit_signal``, stop 40); None: the path GP's signal
     signal: MultiOutputGP | None = None
-    #: its weight in the run-time signal (the rest: the path GP's)
+    #: its weight in the run-time signal (the rest: the path GP's and the log signal GP's)
     signal_weight: float = 1.0
+    #: log(y_t) on the grid with the signal GP's kernel form (``_fit.fit_log_signal``,
+    #: stop 55; tilted cells), and its weight in the run-time signal (exp of it); None: none
+    log_signal: MultiOutputGP | None = None
+    log_signal_weight: float = 0.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -141,11 +161,13 @@ class CalibratedModel:
                           np.asarray(arrays[f"{p}box_high"]),
                           tuple(info.get("derived_inputs", ())))
                 anchors = {name: MultiOutputGP.from_arrays(arrays, f"{p}anchor_{name}/")
-                           for name in ANCHORS if f"{p}anchor_{name}/x" in arrays}
+                           for a in ANCHORS for name in (a, f"{a}_cv")
+                           if f"{p}anchor_{name}/x" in arrays}
                 pressure = (MultiOutputGP.from_arrays(arrays, f"{p}pressure/")
                             if f"{p}pressure/x" in arrays else None)
-                signal = (MultiOutputGP.from_arrays(arrays, f"{p}signal/")
-                          if f"{p}signal/x" in arrays else None)
+                signal, log_signal = (MultiOutputGP.from_arrays(arrays, f"{p}{name}/")
+                                      if f"{p}{name}/x" in arrays else None
+                                      for name in ("signal", "log_signal"))
                 end, straight_end = (float(np.asarray(arrays[f"{p}{name}"])[0])
                                      if f"{p}{name}" in arrays else None
                                      for name in ("end_input", "straight_end"))
@@ -153,7 +175,9 @@ class CalibratedModel:
                                    np.asarray(arrays[f"{p}feature_mean"]),
                                    np.asarray(arrays[f"{p}feature_std"]), anchors, pressure,
                                    end, straight_end, signal,
-                                   float(info.get("signal", {}).get("weight", 1.0)))
+                                   float(info.get("signal", {}).get("weight", 1.0)),
+                                   log_signal,
+                                   float(info.get("log_signal", {}).get("weight", 0.0)))
         #: the tilted cells' calibrated strip-shear factor on the Ritz rule (``_shear``)
         self.twisting_shear: dict[str, Any] | None = manifest.get("twisting_shear")
         #: how a wall of another law is placed (``_law``; None: the closest Gent wall)
@@ -297,9 +321,17 @@ class CalibratedModel:
         std_signal = rel[:, None] * k.gp.scale.reshape(J, nq)[None, :, 1]
         if k.pressure is not None:
             values[:, :, 0], std_log_p = k.pressure.predict(x, std=True)
-        if k.signal is not None:
-            w = float(k.signal_weight)
-            values[:, :, 1] = (1.0 - w) * values[:, :, 1] + w * k.signal.predict(x)
+        if k.signal is not None or k.log_signal is not None:
+            # the run-time signal: the path GP's, the signal GP's and exp of the log signal
+            # GP's, weighted (``_fit.SIGNAL_WEIGHT``, ``_fit.LOG_SIGNAL_WEIGHT``)
+            w = float(k.signal_weight) if k.signal is not None else 0.0
+            wl = float(k.log_signal_weight) if k.log_signal is not None else 0.0
+            sig = (1.0 - w - wl) * values[:, :, 1]
+            if k.signal is not None:
+                sig += w * k.signal.predict(x)
+            if k.log_signal is not None:
+                sig += wl * np.exp(k.log_signal.predict(x))
+            values[:, :, 1] = sig
         # support: the largest grid volume whose training designs include a close one
         reach = k.gp.mask.reshape(len(k.gp.x), J, nq)[:, :, 0]
         best = np.stack([np.where(reach[:, j][None, :], ks, 0.0).max(axis=1)
@@ -313,8 +345,7 @@ class CalibratedModel:
             anchor_std = np.full_like(anchors, np.nan)
             for j, name in enumerate(ANCHORS):
                 if name in k.anchors:
-                    m, sd = k.anchors[name].predict(x, std=True)
-                    anchors[:, j], anchor_std[:, j] = m[:, 0], sd[:, 0]
+                    anchors[:, j], anchor_std[:, j] = _anchor_prediction(k.anchors, name, x)
         return GridPrediction(kind, values, std_log_p, t_end, p_end, inside, outside,
                               anchors, anchor_std, std_signal)
 

@@ -4,6 +4,7 @@
     python -m multimorph.calibrated.fit model [--emulators] [--kinds K ...]  # data/model.npz
     python -m multimorph.calibrated.fit twist-shear                    # tilted cells' shear factor
     python -m multimorph.calibrated.fit signal [--kinds bending]       # the signal GP alone
+    python -m multimorph.calibrated.fit log-signal [--kinds twisting]  # the log signal GP alone
     python -m multimorph.calibrated.fit pressure [--kinds bending]     # the pressure GP alone
     python -m multimorph.calibrated.fit path [--kinds bending]         # the path GP alone
     python -m multimorph.calibrated.fit anchors [--kinds bending]      # the Pc and Ph GPs alone
@@ -108,7 +109,7 @@ def fit_law_map_into_model(fast: bool = True) -> dict[str, Any] | None:
 
 
 def _refit_part(part: str, kinds: tuple[str, ...]) -> int:
-    """``fit signal|pressure|path|anchors``: one GP of ``kinds`` into the shipped model
+    """``fit signal|log-signal|pressure|path|anchors``: one GP of ``kinds`` into the shipped model
     (``_fit.add_part``), then what reads it: the twisting kind after a bending pressure or
     anchor refit (its inputs are the bending kind's log P and its Pc anchor), the
     strip-shear factor after a pressure, path or anchor refit of bending or twisting (its
@@ -123,7 +124,7 @@ def _refit_part(part: str, kinds: tuple[str, ...]) -> int:
         return 2
     if part in ("pressure", "anchors") and "bending" in kinds and "twisting" not in kinds:
         fit_and_save(kinds=("twisting",), straight_of=straight_of)
-    if part != "signal" and {"bending", "twisting"} & set(kinds):
+    if part not in ("signal", "log_signal") and {"bending", "twisting"} & set(kinds):
         fit_twist_shear()
     if "bending" in kinds:
         fit_law_map_into_model()
@@ -153,6 +154,9 @@ def main(argv: list[str] | None = None) -> int:
     helps = {
         "signal": "fit the signal GP (a kernel of its own past the snap) of these kinds into "
                   "the shipped model, keeping its other GPs (also done by 'model')",
+        "log-signal": "fit the log signal GP (log of the signal over t, tilted cells only) "
+                      "of the twisting kind into the shipped model, keeping its other GPs "
+                      "(also done by 'model')",
         "pressure": "fit the pressure GP (log P on the grid, designs stopped at their "
                     "pressure limit as censored data) of these kinds into the shipped model "
                     "on every current training design, keeping its other GPs; a bending "
@@ -168,14 +172,15 @@ def main(argv: list[str] | None = None) -> int:
                    "the twisting kind that reads it, and the strip-shear factor (also done "
                    "by 'model')"}
     for part, text in helps.items():
-        sub.add_parser(part, help=text).add_argument("--kinds", nargs="+", metavar="KIND",
-                                                     default=["bending"])
+        sub.add_parser(part, help=text).add_argument(
+            "--kinds", nargs="+", metavar="KIND",
+            default=["twisting"] if part == "log-signal" else ["bending"])
     sub.add_parser("law-map", help="fit how a wall of another law (Yeoh-like) is placed in "
                    "the model, on the Yeoh-walled FE cells of yeoh2_mirror against the "
                    "shipped bending kind (also done by 'model' and every bending refit)")
     args = ap.parse_args(argv)
     if args.what in helps:
-        return _refit_part(args.what, tuple(args.kinds))
+        return _refit_part(args.what.replace("-", "_"), tuple(args.kinds))
     if args.what == "law-map":
         return 0 if fit_law_map_into_model() is not None else 2
     if args.what == "ritz-table":
