@@ -430,3 +430,43 @@ def test_the_tilted_pc_anchor_is_the_mean_of_its_likelihood_and_cross_validated_
         s = both.anchor_std[:, 0]
         assert np.all(s >= np.minimum(sa, sb) - 1e-12) and np.all(s >= 0.5 * np.abs(a - b))
 
+
+def test_the_tilted_strip_shear_is_the_mean_of_three_gps() -> None:
+    """Since stop 55 the twisting kind's signal (the strip shear over t) is the equal mean
+    of its path GP's, its signal GP's and exp of its log signal GP's
+    (``_fit.LOG_SIGNAL_KINDS``), in both variants: the grid's signal is that mean of what
+    copies of the model with one GP each predict, the log GP's term is a shear in the
+    sense of the tilt (positive), and the kinds whose signal changes sign (a cell bends
+    either way) have no log GP: a fit of one refuses them."""
+    from types import SimpleNamespace
+
+    from multimorph.calibrated._fit import (
+        LOG_SIGNAL_KINDS,
+        LOG_SIGNAL_WEIGHT,
+        fit_log_signal,
+        load_reference,
+    )
+
+    assert LOG_SIGNAL_KINDS == ("twisting",) and LOG_SIGNAL_WEIGHT == pytest.approx(1 / 3)
+    with pytest.raises(ValueError, match="changes sign"):
+        fit_log_signal(SimpleNamespace(kind="bending"), None, None, None)
+    model = load_model()
+    ref = load_reference()["twisting"]
+    cells = [ref.cell(int(r)) for r in np.flatnonzero(ref.ok)[:12]]
+    for fast, variant in ((False, "kinds"), (True, "fast_kinds")):
+        kinds = getattr(model, variant)
+        k = kinds["twisting"]
+        assert k.log_signal is not None and k.signal is not None
+        assert k.signal_weight == pytest.approx(1 / 3) == k.log_signal_weight
+        assert all(kinds[other].log_signal is None for other in ("bending", "stretching"))
+        both = model.grid(cells, fast=fast).values[:, :, 1]
+        one = []
+        for keep in ("path", "signal", "log_signal"):
+            m = copy.copy(model)
+            setattr(m, variant, {**kinds, "twisting": replace(
+                k, signal=k.signal if keep == "signal" else None, signal_weight=1.0,
+                log_signal=k.log_signal if keep == "log_signal" else None,
+                log_signal_weight=1.0)})
+            one.append(m.grid(cells, fast=fast).values[:, :, 1])
+        np.testing.assert_allclose(both, sum(one) / 3.0, rtol=1e-10, atol=1e-12)
+        assert np.all(one[2] > 0.0)

@@ -157,7 +157,8 @@ def test_gripper_twists_after_its_fingers_have_bent():
 
     Since stop 37 the example is the FE-verified design; since stop 54 the one designed and
     verified on stop 54's model (14 Dragon Skin 10 finger cells, a 4-cell twister at 20.8°).
-    Its twister turns 49° by 30 kPa and 95° by 40 kPa (FE at its Ph, 42.2 kPa: 100°): the
+    Its twister turns 46° by 30 kPa and 96° by 40 kPa (stop 55's three shear GPs; 49° and
+    95° on stop 54's two; FE at its Ph, 42.2 kPa: 100°): the
     twist starts with the inflation and speeds up past 30 kPa, as FE's did on stop 37's
     design (1.6° / kPa on average below 30 kPa, 4.8° / kPa above), so the model's twist is
     asked to be faster after 30 kPa than before it. Its fingers bend with their
