@@ -426,8 +426,9 @@ SIGNAL_WEIGHT = 0.5
 #: model's pressures, held-out fifths 53 / `twisting3` 107 within 10 % as graphs) the
 #: average of two (stop 53) 53 / 52 %, either alone 45–49 %, the log GP alone 51 / 42 %,
 #: the three 57 / 61 %; through the whole chain (`validate`) the fifths 51 → 62 %, with
-#: `twisting3` 57 → 64 % (docs/validation.md §4 stop 55). Bending cells' signal changes
-#: sign (a cell bends either way): not for them.
+#: `twisting3` 57 → 64 %; 5-fold cross-validation on the training designs (chosen after)
+#: gains less, 50.0–52.5 → 51.7–52.5 % (docs/validation.md §4 stop 55). Bending cells'
+#: signal changes sign (a cell bends either way): not for them.
 LOG_SIGNAL_KINDS = ("twisting",)
 LOG_SIGNAL_FLOOR = 1e-3
 LOG_SIGNAL_WEIGHT = 1.0 / 3.0
