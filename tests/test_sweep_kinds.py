@@ -185,3 +185,32 @@ def test_a_tilted_cell_through_the_reduced_backend_gives_its_shear_record() -> N
     assert shear.shape == np.asarray(rec["pressure"]).shape
     assert np.all(np.isfinite(shear)) and shear[-1] > 0      # the strip shears with the tilt
     assert rec["meta"]["model"] == "ritz"
+
+
+def test_a_run_of_chosen_designs_with_other_options_leaves_the_rest_pending(tmp_path) -> None:
+    """``run_sweep(designs=, options=)`` runs a few designs again with other backend
+    options (the data set's refinement does, with finer continuation steps)."""
+    from multimorph.sweep import open_results, run_sweep
+
+    class Scaled:
+        name, batch_size = "scaled", 1
+
+        def evaluate_batch(self, designs, pmax, outputs, options):  # type: ignore[no-untyped-def]
+            return [{"critical_pressure": options.get("scale", 1.0) * c.top_wall}
+                    for c in designs]
+
+    s = parse_sweep_spec(spec('[sweep.parameters]\n"ht/d" = [0.03, 0.04, 0.05, 0.06]\n'
+                              '[sweep.options]\nscale = 1.0\n'))
+    out = run_sweep(s, tmp_path / "s", scheduler="sync", backend=Scaled(), designs=[3, 1],
+                    options={"scale": 2.0})
+    assert out.n_run == 2
+    ds = open_results(tmp_path / "s")
+    assert list(ds["status"].values) == ["pending", "ok", "pending", "ok"]
+    top = [c.top_wall for c in s.design_table().cells]
+    np.testing.assert_allclose(ds["critical_pressure"].values[[1, 3]],
+                               [2 * top[1], 2 * top[3]])
+    again = run_sweep(s, tmp_path / "s", scheduler="sync", backend=Scaled(), designs=[1])
+    assert again.n_run == 0  # finished designs are not run again
+    with pytest.raises(SpecError, match="designs: \\[7\\]"):
+        run_sweep(s, tmp_path / "t", scheduler="sync", backend=Scaled(), designs=[7])
+    assert not (tmp_path / "t").exists()  # refused before anything was created

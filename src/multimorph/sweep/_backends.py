@@ -369,8 +369,8 @@ class FeBackend:
     :class:`~multimorph.geometry.TiltedCell`) run as the full (not half) model of the
     sheared strip; their record adds the strip's shear in the sense of the tilt, and Pc/Ph
     are read on it. Every record carries ``meta``: DOF, points, Newton iterations, time,
-    why the path ended, the mesh and solver settings, the traced pressure range and the
-    code version.
+    why the path ended, the mesh, solver and continuation settings, the traced pressure
+    range and the code version.
     """
 
     name = "fe"
@@ -467,7 +467,11 @@ class FeBackend:
                         "half": settings.half,
                         "mesh": mesh if isinstance(mesh, str) else asdict(mesh),
                         "solver": st["solver"], "tol": settings.tol,
-                        "max_volume_ratio": settings.max_volume_ratio}
+                        "max_volume_ratio": settings.max_volume_ratio,
+                        "continuation": {"method": settings.method,
+                                         "dx_max": settings.dx_max,
+                                         "dp_max": settings.dp_max,
+                                         "max_steps": settings.max_steps}}
                 if isinstance(d, TiltedCell):
                     gamma = np.asarray(res.response.path.extra["shear"], float)
                     out.append(_tilted_record(res.response, -math.copysign(1.0, d.tilt) * gamma,

@@ -168,6 +168,18 @@ def _run_distributed(jobs: list[_Job], client: Any, retries: int,
         fut.release()
 
 
+def _only_designs(designs: Sequence[int], table: Any) -> np.ndarray:
+    """The design indices a run is restricted to, checked against the table."""
+    only = np.unique(np.asarray([int(i) for i in designs], dtype=np.int64))
+    valid = set(table.valid_indices.tolist())
+    bad = [int(i) for i in only if int(i) not in valid]
+    if bad:
+        raise SpecError(f"designs: {bad[:5]} {'is' if len(bad) == 1 else 'are'} not valid "
+                        f"design indices of this sweep (0-{len(table) - 1}, invalid ones "
+                        "excluded)")
+    return only
+
+
 #: Seconds to wait for a scheduler address to answer (before anything is created).
 SCHEDULER_TIMEOUT = 10.0
 #: Most worker processes or threads per CPU core.
@@ -211,7 +223,8 @@ def run_sweep(spec: SweepSpec | str | os.PathLike[str], out: str | os.PathLike[s
               batch_size: int | None = None, retries: int = 2, client: Any = None,
               backend: SweepBackend | None = None, progress: ProgressFn | None = None,
               retry_failed: bool = False, limit: int | None = None,
-              allow_plugins: Sequence[str] = ()) -> SweepSummary:
+              allow_plugins: Sequence[str] = (), designs: Sequence[int] | None = None,
+              options: Mapping[str, Any] | None = None) -> SweepSummary:
     """Run (or resume) a sweep into the folder ``out``.
 
     Parameters
@@ -244,6 +257,13 @@ def run_sweep(spec: SweepSpec | str | os.PathLike[str], out: str | os.PathLike[s
     allow_plugins : sequence of str
         ``"package.module:factory"`` backends the spec may name (the command line's
         ``--allow-plugin``); a spec alone can only name registered backends.
+    designs : sequence of int, optional
+        Evaluate only these design indices of the spec's table (each a valid design); the
+        others stay pending. E.g. a few designs run again into a folder of their own.
+    options : mapping, optional
+        Backend options that update the spec's ``sweep.options`` for this run (checked by
+        the backend like the spec's). The folder's manifest keeps the spec's; what a record
+        was run with is the backend's to record (the FE records its settings in ``meta``).
 
     Raises
     ------
@@ -274,10 +294,12 @@ def run_sweep(spec: SweepSpec | str | os.PathLike[str], out: str | os.PathLike[s
     try:
         be = backend if backend is not None else get_backend(spec.backend,
                                                              plugins=allow_plugins)
+        run_options = {**dict(spec.options), **dict(options or {})}
         validate = getattr(be, "validate", None)
         if validate is not None:
-            validate(spec.pmax, spec.options)
+            validate(spec.pmax, run_options)
         table = spec.design_table()
+        only = None if designs is None else _only_designs(designs, table)
         if len(table.invalid) == len(table):
             first = table.invalid[0]
             raise SpecError(f"sweep: all {len(table)} designs are invalid, nothing to run "
@@ -297,13 +319,16 @@ def run_sweep(spec: SweepSpec | str | os.PathLike[str], out: str | os.PathLike[s
         done = store.finished(include_failed=not retry_failed)
         n_resumed = int(done.size)
         pending = np.setdiff1d(table.valid_indices, done)
+        if only is not None:
+            done = np.union1d(done, np.setdiff1d(pending, only))  # not asked for: as if done
+            pending = np.intersect1d(pending, only)
         if limit is not None:
             if limit < 0:
                 raise SpecError(f"limit must be >= 0, got {limit}")
             done = np.union1d(done, pending[limit:])  # not run now: planned as if done
         batches = plan_batches(table.valid_indices, done, bs)
         total = int(sum(b.size for b in batches))
-        jobs = [_Job(be, b, [table.cells[i] for i in b], spec.pmax, spec.outputs, spec.options,
+        jobs = [_Job(be, b, [table.cells[i] for i in b], spec.pmax, spec.outputs, run_options,
                      bs) for b in batches]
         count = [0]
 
