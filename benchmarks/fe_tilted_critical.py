@@ -14,6 +14,9 @@ with half the continuation's step limits (``dx_max``, ``dp_max``; ``max_steps`` 
 match), everything else as its set's spec, and prints, per design, the data set's Pc, the
 finer run's (its kind, and whether it turned round again) and the calibrated model's
 (``calibrated-fast``), so that a label that was the continuation's, not the cell's, shows.
+Since stop 56 the data set's builder repairs such labels itself (``build_dataset --refine``,
+:mod:`multimorph.calibrated._refine`, the same test and step limits): on the refined
+archive this lists the paths that turned round again.
 
 Each finer run is kept in ``benchmarks/runs/fe_tilted_critical/<set>/<design>.npz``
 (written whole or not at all): an interrupted run resumes where it stopped. ``--shard i/n``
@@ -34,26 +37,13 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
 from fe_mesh_curves import _kpa, _pct, stored_fe_path  # noqa: E402
 
+from multimorph.calibrated._refine import REFINEMENT, turned_at_critical  # noqa: E402
+
 #: The tilted sets of the data set.
 TILTED_SETS = ("twisting", "twisting2", "twisting_narrow", "twisting3")
-#: The finer continuation: these step limits (the FE defaults 0.01, 0.02 halved), and
-#: steps enough to trace the same path with them (the sets' spec allows 150).
-FINER = {"dx_max": 0.005, "dp_max": 0.01, "max_steps": 350}
-#: Past a critical point the chamber volume has to grow by this fraction for the path to
-#: have gone on (else the continuation turned round there).
-VOLUME_GROWTH = 0.02
-
-
-def turned_at_critical(path: dict[str, np.ndarray], pc: float | None,
-                       kind: str | None) -> bool:
-    """Whether the path's Pc is a limit point past which its chamber volume never grows
-    by :data:`VOLUME_GROWTH` (the continuation turned round there)."""
-    if kind != "limit_point" or pc is None or not math.isfinite(pc):
-        return False
-    P = np.asarray(path["pressure"], float)
-    V = np.asarray(path["volume"], float)
-    i = int(np.argmin(np.abs(P - pc)))
-    return bool(V[i:].max() < (1.0 + VOLUME_GROWTH) * V[i])
+#: The finer continuation and the test of a turned-round end: the data set's own
+#: (:mod:`multimorph.calibrated._refine`, which ``build_dataset --refine`` runs since stop 56).
+FINER = REFINEMENT
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -10,10 +10,12 @@ The finished designs ship inside the package in one compressed NumPy archive,
 ``calibrated/data/fe_reference.npz``: per set the design index, the swept parameter values
 (SI), status and error, every path on its own pressure points (SI: Pa, 1/m, m³, rad), the
 stability flags, and per design a JSON ``meta`` (DOF, points, time, why the path ended,
-mesh and solver settings, code version). ``fe_reference.json`` beside it is the manifest
-(spec texts and hashes, counts, the split). ``python -m multimorph.calibrated.build_dataset``
-runs (or resumes) the sweeps and rewrites both; a run on a fresh machine first seeds the
-sweep folders from the shipped archive, so it resumes from what is committed.
+mesh, solver and continuation settings, code version; ``refinement`` where the path was
+traced again with finer steps, :mod:`multimorph.calibrated._refine`).
+``fe_reference.json`` beside it is the manifest (spec texts and hashes, counts, the split).
+``python -m multimorph.calibrated.build_dataset`` runs (or resumes) the sweeps and rewrites
+both; a run on a fresh machine first seeds the sweep folders from the shipped archive, so
+it resumes from what is committed.
 """
 
 from __future__ import annotations
@@ -188,13 +190,22 @@ def _set_from_columns(name: str, cols: Mapping[str, np.ndarray], spec: Any,
 
 
 def collect_set(name: str, folder: str | os.PathLike[str]) -> ReferenceSet | None:
-    """The finished designs of a sweep folder of set ``name`` (None if none yet)."""
+    """The finished designs of a sweep folder of set ``name`` (None if none yet), with the
+    refined runs of its ``refined/`` folder laid over them
+    (:func:`multimorph.calibrated._refine.overlay_refined`)."""
+    from multimorph.calibrated._refine import REFINED_FOLDER, overlay_refined
     from multimorph.sweep import collect_parts
 
     cols = collect_parts(folder)
     if not cols:
         return None
-    return _set_from_columns(name, cols, reference_spec(name))
+    spec = reference_spec(name)
+    refined = Path(folder) / REFINED_FOLDER
+    if (refined / "parts").is_dir():
+        table = spec.design_table()
+        cols = overlay_refined(cols, collect_parts(refined), lambda i: table.cells[i],
+                               REFERENCE_SETS[name])
+    return _set_from_columns(name, cols, spec)
 
 
 def write_reference(sets: Mapping[str, ReferenceSet], *, archive: Path = ARCHIVE,

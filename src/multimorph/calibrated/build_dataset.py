@@ -1,7 +1,7 @@
 """Build (or resume) the FE reference data set and write it into the package.
 
     python -m multimorph.calibrated.build_dataset [--sets grid24 stretching twisting bending]
-        [--work dataset] [--workers 2] [--export-every 300] [--limit N] [--check]
+        [--work dataset] [--workers 2] [--export-every 300] [--limit N] [--refine] [--check]
 
 Each set is a ``multimorph sweep`` (``fe`` backend, Dask LocalCluster, resumable) into
 ``<work>/<set>/``. Before a set runs, its sweep folder is seeded with the designs the
@@ -10,6 +10,9 @@ committed, not from scratch. While a set runs, the archive
 (``multimorph/calibrated/data/fe_reference.npz`` and its ``.json`` manifest) is rewritten
 every ``--export-every`` seconds and at the end. Progress goes to stderr as plain lines.
 Interrupt it at any time (Ctrl-C, SIGKILL, the end of a session): the same command resumes.
+``--refine`` then traces again, with finer continuation steps, the paths of a set whose
+Pc is where the continuation turned round (:mod:`multimorph.calibrated._refine`), into
+``<work>/<set>/refined/``, and lays them over the originals in the archive.
 ``--check`` prints what the archive and the work folders hold and exits.
 """
 
@@ -94,6 +97,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--export-every", type=float, default=300.0, help="seconds")
     ap.add_argument("--limit", type=int, default=None,
                     help="run at most this many pending designs of each set in this pass")
+    ap.add_argument("--refine", action="store_true",
+                    help="then trace again, with finer steps, the paths that end where the "
+                         "continuation turned round")
     ap.add_argument("--check", action="store_true")
     ap.add_argument("--retry-failed", action="store_true",
                     help="evaluate designs that failed in an earlier run again")
@@ -108,7 +114,8 @@ def main(argv: list[str] | None = None) -> int:
             run = collect_set(name, folder) if (folder / "parts").is_dir() else None
             print(f"{name:10s} spec {spec.spec_hash[:12]}: {spec.n_designs} designs; archive "
                   f"{len(ref) if ref else 0} finished ({int(ref.ok.sum()) if ref else 0} ok)"
-                  f"; work folder {len(run) if run else 0} finished")
+                  f"; work folder {len(run) if run else 0} finished"
+                  f"{_refined_note(ref)}")
         return 0
     from multimorph.sweep import run_sweep
 
@@ -137,7 +144,43 @@ def main(argv: list[str] | None = None) -> int:
              f"{summary.elapsed / 60:.1f} min")
         export(work, shipped)
         _log("archive rewritten")
+        if args.refine:
+            refine(name, folder, args.workers, work, shipped)
     return 0
+
+
+def _refined_note(ref: ReferenceSet | None) -> str:
+    if ref is None:
+        return ""
+    notes = [m["refinement"] for m in ref.meta if "refinement" in m]
+    if not notes:
+        return ""
+    moved = sum(1 for x in notes if "error" not in x and not x.get("turned_again"))
+    return f"; {len(notes)} refined ({moved} passed their old end)"
+
+
+def refine(name: str, folder: Path, workers: int, work: Path,
+           shipped: dict[str, ReferenceSet]) -> None:
+    """Trace again the set's paths that end where the continuation turned round."""
+    from multimorph.calibrated._refine import candidates, refine_set
+
+    ref = collect_set(name, folder)
+    if ref is None or not candidates(ref):
+        _log(f"{name}: no path to refine")
+        return
+    t0 = time.monotonic()
+
+    def progress(done: int, total: int) -> None:
+        _log(f"{name}: refined {done}/{total}, {(time.monotonic() - t0) / 60:.1f} min")
+        if done:
+            export(work, shipped)
+            _log("archive rewritten")
+
+    summary = refine_set(name, ref, folder, workers=workers, progress=progress)
+    export(work, shipped)
+    got = collect_set(name, folder)
+    _log(f"{name}: refined {summary.n_run} paths in {summary.elapsed / 60:.1f} min "
+         f"({summary.n_failed} failed){_refined_note(got)}; archive rewritten")
 
 
 if __name__ == "__main__":
