@@ -41,9 +41,11 @@ def _limit_path(n: int = 30, turn_back: bool = True) -> dict[str, np.ndarray]:
 
 
 def _smooth_path(n: int = 40) -> dict[str, np.ndarray]:
-    """A tilted path that goes on: pressure rising monotonically, volume growing 4x."""
+    """A tilted path that goes on: pressure rising monotonically, the shear rising
+    steepest at 20 kPa (a knee: Pc on the slope) then hardening, volume growing 4x."""
     s = np.linspace(0.0, 1.0, n)
-    return {"pressure": 4e4 * s, "shear": 0.3 * s ** 3 + 0.01 * s, "curvature": np.zeros(n),
+    shear = 0.3 / (1.0 + np.exp(-(s - 0.5) / 0.06)) + 0.01 * s
+    return {"pressure": 4e4 * s, "shear": shear, "curvature": np.zeros(n),
             "peak_stretch": 1.0 + 2 * s, "axial_stretch": 1.0 + 0.01 * s,
             "volume": 1e-6 * (1.0 + 3 * s), "bend_angle": np.zeros(n), "twist_rate": np.zeros(n),
             "stable": np.ones(n, bool)}
@@ -119,7 +121,9 @@ def test_a_refined_path_replaces_the_original_and_says_what_it_replaced(tmp_path
     assert note["previous"]["critical_kind"] == "limit_point"
     assert note["previous"]["critical_pressure"] == pytest.approx(3e4, rel=2e-3)
     assert note["previous"]["status"] == "stalled"
-    assert note["critical_kind"] != "limit_point"  # the finer path went on past the old end
+    # the finer path went on past the old end: its Pc is on the slope, at 20 kPa
+    assert note["critical_kind"] == "max_slope"
+    assert note["critical_pressure"] == pytest.approx(2e4, rel=0.05)
     assert candidates(got) == []  # refined once: never a candidate again
 
 
@@ -135,6 +139,30 @@ def test_a_failed_refinement_keeps_the_original_path_and_records_the_error(tmp_p
     assert got is not None and got.status[0] == "ok"
     np.testing.assert_array_equal(got.path(0)["pressure"], ref.path(0)["pressure"])
     assert got.meta[0]["refinement"]["error"] == "ContinuationError: stalled"
+    assert candidates(got) == []
+
+
+def test_a_finer_path_that_reads_no_pc_leaves_the_original_label(tmp_path) -> None:
+    """A finer path that wanders on past the old limit point through more folds than the
+    Pc reading resolves (no Pc on it) does not erase a Pc: the original path stays."""
+    from multimorph.calibrated._refine import KEPT_NO_PC, _critical
+
+    spec = reference_spec(SET)
+    d = int(spec.design_table().valid_indices[2])
+    _, ref = _folder_with_one_design(tmp_path, d)
+    n = 25
+    flat = {**_smooth_path(n), "shear": np.linspace(0.0, 0.01, n),
+            "volume": 1e-6 * np.linspace(1.0, 1.1, n)}  # never balloons: no Pc to read
+    assert _critical(flat, spec.design_table().cells[d], "twisting")[0] is None
+    store = SweepStore(tmp_path / SET / REFINED_FOLDER, spec, spec.design_table())
+    with store.locked():
+        store.prepare()
+        store.write_part([d], [{**flat, "meta": {"continuation": dict(REFINEMENT)}}])
+    got = collect_set(SET, tmp_path / SET)
+    assert got is not None
+    np.testing.assert_array_equal(got.path(0)["pressure"], ref.path(0)["pressure"])
+    note = got.meta[0]["refinement"]
+    assert note["kept"] == KEPT_NO_PC and note["critical_pressure"] is None
     assert candidates(got) == []
 
 
@@ -162,6 +190,6 @@ def test_the_shipped_tilted_sets_hold_no_turned_round_end_left_unrefined() -> No
         x = m["refinement"]
         assert x["previous"]["critical_kind"] == "limit_point"
         assert x["options"]["dx_max"] == REFINEMENT["dx_max"]
-        if "error" not in x:  # the finer run's own settings are in its record
+        if "error" not in x and "kept" not in x:  # the finer run's settings are its record's
             assert m["continuation"]["dx_max"] == REFINEMENT["dx_max"]
             assert m["continuation"]["max_steps"] == REFINEMENT["max_steps"]

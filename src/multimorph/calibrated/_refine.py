@@ -20,7 +20,10 @@ refined path over the original when the set is collected:
   time, the refined Pc and whether the refined path turned round again (then the end is
   the cell's: two step sizes stop at the same point);
 * the refined run failed: the original path stays, its ``meta`` gains ``refinement`` with
-  the error.
+  the error;
+* the refined path reads no Pc where the original read one (it wanders on past the old
+  limit point through more folds than the shared reading resolves; stop 56:
+  ``bending_mirror`` #109): the original path stays, ``refinement.kept`` says so.
 
 A design whose ``meta`` holds ``refinement`` is never a candidate again, so a build seeded
 from the shipped archive (whose records carry it) does not run it again.
@@ -54,6 +57,7 @@ REFINEMENT: dict[str, Any] = {"dx_max": 0.005, "dp_max": 0.01, "max_steps": 350}
 VOLUME_GROWTH = 0.02
 #: The sub-folder of a set's sweep folder that holds the refined runs.
 REFINED_FOLDER = "refined"
+KEPT_NO_PC = "original: the finer path reads no Pc"
 REASON = (f"the FE path ended at its limit point: past it the chamber volume never grew by "
           f"{VOLUME_GROWTH:.0%} (the continuation turned round); traced again with finer "
           "steps")
@@ -182,6 +186,18 @@ def overlay_refined(cols: Mapping[str, np.ndarray], refined: Mapping[str, np.nda
             meta["refinement"] = note
             out["meta"][j] = json.dumps(meta, sort_keys=True)
             continue
+        new_path = _row_path(refined, r)
+        pc_new, kind_new = _critical(new_path, cell, kind)
+        note.update(critical_pressure=pc_new, critical_kind=kind_new,
+                    turned_again=turned_at_critical(new_path, pc_new, kind_new))
+        if pc_new is None and pc_old is not None:
+            # the finer path reads no Pc where the coarser read one (it wanders past the
+            # old limit point, through more folds than the reading resolves): the old
+            # path's first fold stays the label
+            note["kept"] = KEPT_NO_PC
+            meta["refinement"] = note
+            out["meta"][j] = json.dumps(meta, sort_keys=True)
+            continue
         for k, v in refined.items():
             if k == "design":
                 continue
@@ -196,10 +212,6 @@ def overlay_refined(cols: Mapping[str, np.ndarray], refined: Mapping[str, np.nda
                 out[k][j] = _fill(out[k].dtype)
             elif k != "design":
                 out[k][j] = _fill(out[k].dtype)
-        new_path = _row_path(out, j)
-        pc_new, kind_new = _critical(new_path, cell, kind)
-        note.update(critical_pressure=pc_new, critical_kind=kind_new,
-                    turned_again=turned_at_critical(new_path, pc_new, kind_new))
         rmeta["refinement"] = note
         out["meta"][j] = json.dumps(rmeta, sort_keys=True)
     return out
