@@ -39,8 +39,6 @@ from typing import Any
 
 import numpy as np
 
-from multimorph.calibrated._dataset import CURVES, ReferenceSet, reference_spec
-
 __all__ = ["REFINED_KINDS", "REFINEMENT", "VOLUME_GROWTH", "candidates",
            "ended_by_continuation", "overlay_refined", "refine_set", "turned_at_critical"]
 
@@ -90,10 +88,11 @@ def _critical(path: Mapping[str, np.ndarray], cell: Any, kind: str,
     return ch.critical, ch.critical_kind
 
 
-def candidates(ref: ReferenceSet) -> list[int]:
-    """Design indices of ``ref`` whose FE path turned round at its Pc, ended for a reason
-    of the continuation's (:func:`ended_by_continuation`) and has not been refined yet (none
-    for a kind outside :data:`REFINED_KINDS`)."""
+def candidates(ref: Any) -> list[int]:
+    """Design indices of ``ref`` (a :class:`~._dataset.ReferenceSet`) whose FE path
+    turned round at its Pc, ended for a reason of the continuation's
+    (:func:`ended_by_continuation`) and has not been refined yet (none for a kind outside
+    :data:`REFINED_KINDS`)."""
     if ref.kind not in REFINED_KINDS:
         return []
     out = []
@@ -109,8 +108,8 @@ def candidates(ref: ReferenceSet) -> list[int]:
 
 def _row_path(cols: Mapping[str, np.ndarray], j: int) -> dict[str, np.ndarray]:
     n = int(cols["n_points"][j])
-    out = {c: np.asarray(cols[f"curve_{c}"][j, :n], float) for c in CURVES
-           if f"curve_{c}" in cols}
+    out = {k[len("curve_"):]: np.asarray(v[j, :n], float) for k, v in cols.items()
+           if k.startswith("curve_") and k != "curve_stable"}
     out["stable"] = np.asarray(cols["curve_stable"][j, :n], bool)
     return out
 
@@ -217,15 +216,15 @@ def overlay_refined(cols: Mapping[str, np.ndarray], refined: Mapping[str, np.nda
     return out
 
 
-def refine_set(name: str, ref: ReferenceSet, folder: str | Path, *, workers: int | None = None,
+def refine_set(spec: Any, ref: Any, folder: str | Path, *, workers: int | None = None,
                progress: Callable[[int, int], None] | None = None) -> Any:
-    """Run the candidates of set ``name`` (collected as ``ref``) again with
-    :data:`REFINEMENT` into ``<folder>/refined/`` (resumable, like any sweep). Returns the
-    :class:`~multimorph.sweep.SweepSummary`, or None when no design is a candidate."""
+    """Run the candidates of a set (its sweep spec ``spec``, collected as ``ref``) again
+    with :data:`REFINEMENT` into ``<folder>/refined/`` (resumable, like any sweep). Returns
+    the :class:`~multimorph.sweep.SweepSummary`, or None when no design is a candidate."""
     from multimorph.sweep import run_sweep
 
     todo = candidates(ref)
     if not todo:
         return None
-    return run_sweep(reference_spec(name), Path(folder) / REFINED_FOLDER, designs=todo,
-                     options=REFINEMENT, workers=workers, progress=progress)
+    return run_sweep(spec, Path(folder) / REFINED_FOLDER, designs=todo, options=REFINEMENT,
+                     workers=workers, progress=progress)

@@ -176,7 +176,8 @@ def refine(name: str, folder: Path, workers: int, work: Path,
             export(work, shipped)
             _log("archive rewritten")
 
-    summary = refine_set(name, ref, folder, workers=workers, progress=progress)
+    summary = refine_set(reference_spec(name), ref, folder, workers=workers,
+                         progress=progress)
     export(work, shipped)
     got = collect_set(name, folder)
     _log(f"{name}: refined {summary.n_run} paths in {summary.elapsed / 60:.1f} min "
