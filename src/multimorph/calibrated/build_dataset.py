@@ -155,7 +155,8 @@ def _refined_note(ref: ReferenceSet | None) -> str:
     notes = [m["refinement"] for m in ref.meta if "refinement" in m]
     if not notes:
         return ""
-    moved = sum(1 for x in notes if "error" not in x and not x.get("turned_again"))
+    moved = sum(1 for x in notes
+                if "error" not in x and "kept" not in x and not x.get("turned_again"))
     return f"; {len(notes)} refined ({moved} passed their old end)"
 
 
