@@ -206,11 +206,8 @@ def overlay_refined(cols: Mapping[str, np.ndarray], refined: Mapping[str, np.nda
                 out[k][j, :v.shape[1]] = v[r]
             else:
                 out[k][j] = v[r]
-        for k in set(out) - set(refined):  # a quantity only the original had: gone
-            if out[k].ndim == 2:
-                out[k][j] = _fill(out[k].dtype)
-            elif k != "design":
-                out[k][j] = _fill(out[k].dtype)
+        for k in set(out) - set(refined) - {"design"}:  # only the original had it: gone
+            out[k][j] = _fill(out[k].dtype)
         rmeta["refinement"] = note
         out["meta"][j] = json.dumps(rmeta, sort_keys=True)
     return out
