@@ -277,3 +277,37 @@ def test_a_rise_before_the_chamber_balloons_is_not_the_activation():
     cut = P <= 0.6
     none = characteristic_pressures(_path(P[cut], k[cut], volume=volume[cut]))
     assert none.critical is None and none.hardening is None
+
+
+def _sigmoid(pc=10.0, width=1.0, n=81):
+    P = np.linspace(0.0, 2.0 * pc, n)
+    return P, 1.0 / (1.0 + np.exp(-(P - pc) / width))
+
+
+@pytest.mark.parametrize("where", [0.4, 0.5, 0.6])
+def test_a_lone_unstable_flag_on_a_rising_branch_is_walked_through(where):
+    """The FE's stability test can flag one point unstable at the steepest rise (a
+    near-singular tangent; bending_mirror #109, twisting #114 of the data set): with the
+    pressure rising into and out of it the loading curve goes on, and Pc and Ph are those
+    of the same path without the flag."""
+    P, k = _sigmoid()
+    st = np.ones(P.size, bool)
+    st[int(where * P.size)] = False
+    clean = characteristic_pressures(_path(P, k))
+    flagged = characteristic_pressures(_path(P, k, stable=st))
+    loading, _ = observed_curves(_path(P, k, stable=st))
+    assert loading.pressure[-1] == pytest.approx(P[-1])
+    assert not np.any(loading.extra["snap"] > 0)
+    assert flagged.critical == pytest.approx(clean.critical)
+    assert flagged.hardening == pytest.approx(clean.hardening)
+
+
+def test_two_unstable_points_on_a_rising_branch_still_end_the_stable_branch():
+    """Only a lone flag is read as the test's noise: two or more unstable points in a row
+    are a stretch of unstable branch, and the loading curve snaps from before them (here
+    with nowhere to land at that pressure: a runaway)."""
+    P, k = _sigmoid()
+    st = np.ones(P.size, bool)
+    st[40:42] = False
+    loading, _ = observed_curves(_path(P, k, stable=st))
+    assert loading.pressure[-1] == pytest.approx(P[39])

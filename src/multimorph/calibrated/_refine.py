@@ -21,9 +21,11 @@ refined path over the original when the set is collected:
   the cell's: two step sizes stop at the same point);
 * the refined run failed: the original path stays, its ``meta`` gains ``refinement`` with
   the error;
-* the refined path reads no Pc where the original read one (it wanders on past the old
-  limit point through more folds than the shared reading resolves; stop 56:
-  ``bending_mirror`` #109): the original path stays, ``refinement.kept`` says so.
+* the refined path reads no Pc where the original read one: the original path stays,
+  ``refinement.kept`` says so (stop 56: ``bending_mirror`` #109, whose finer path read
+  none because a lone unstable flag at its steepest rise cut its loading curve; with
+  definitions version 4, stop 57, both paths read a max-slope Pc, 16.14 and 16.18 kPa,
+  and the original stays the label; ``stretching2_mirror`` #17).
 
 A design whose ``meta`` holds ``refinement`` is never a candidate again, so a build seeded
 from the shipped archive (whose records carry it) does not run it again.

@@ -72,8 +72,10 @@ __all__ = ["BALLOONING_VOLUME_RATIO", "DEFINITIONS_VERSION", "INFLECTION_PROMINE
 #: Version of these definitions: raised whenever a change moves Pc or Ph read on the same
 #: path, so results cached with derived pressures (FE checks of designs) are not re-used
 #: across it. 2: the first activation and the knee from the slope (stop 30). 3: no
-#: max-slope Pc before the chamber has ballooned (:data:`BALLOONING_VOLUME_RATIO`).
-DEFINITIONS_VERSION = 3
+#: max-slope Pc before the chamber has ballooned (:data:`BALLOONING_VOLUME_RATIO`). 4: a
+#: lone unstable flag on a rising branch does not end the loading curve (stop 57,
+#: ``_observed._flicker``).
+DEFINITIONS_VERSION = 4
 
 #: Path quantities the characteristic pressures can be read on.
 SIGNALS = ("curvature", "axial_stretch", "twist_rate")
