@@ -615,7 +615,10 @@ ANCHOR_ROBUST: dict[str, float] = {"bending": 3.0}
 #: cross-validation on the training designs (median / p90 of |ΔPc|/Pc): 8.6 / 22.7 %
 #: (likelihood), 7.4 / 23.7 % (CV), 8.1 / 21.2 % (mean); Ph 7.3 / 18.6, 7.5 / 23.0, 6.3 /
 #: 19.8 %, but on the held-out designs the mean's Ph was no better (docs/validation.md §4,
-#: stop 55): Ph keeps the likelihood's GP alone.
+#: stop 55): Ph keeps the likelihood's GP alone. Stop 57 checked an average of the
+#: likelihood's local optima weighted by their evidence instead: for Pc its modes lie 5–8
+#: nats apart (the average is the best mode), for Ph it did not carry to the held-out
+#: designs (docs/validation.md §3 Stop 57).
 ANCHOR_CV: dict[str, tuple[str, ...]] = {"twisting": ("pc",)}
 
 
