@@ -333,9 +333,7 @@ class CalibratedModel:
                 sig += wl * np.exp(k.log_signal.predict(x))
             values[:, :, 1] = sig
         # support: the largest grid volume whose training designs include a close one
-        reach = k.gp.mask.reshape(len(k.gp.x), J, nq)[:, :, 0]
-        best = np.stack([np.where(reach[:, j][None, :], ks, 0.0).max(axis=1)
-                         for j in range(J)], axis=1)
+        best = _best_reaching(ks, k.gp.mask.reshape(len(k.gp.x), J, nq)[:, :, 0])
         ok = best >= SUPPORT_CORRELATION
         last = np.where(ok.any(axis=1), J - 1 - np.argmax(ok[:, ::-1], axis=1), 0)
         t_end = T_GRID[last]
@@ -742,6 +740,27 @@ def _without_activation(res: Response, material: Any) -> Response:
                           "(a Gent fit of the same data may snap: docs/validation.md §2, "
                           "Other laws)")}}
     return replace(res, characteristic=char).with_meta(calibration=cal)
+
+
+def _best_reaching(ks: np.ndarray, reach: np.ndarray) -> np.ndarray:
+    """(q, J): at each grid volume j, the largest correlation ``ks`` (q, n) of a query
+    with a training design that reaches j (``reach`` (n, J)). A design's outputs stop
+    where its FE path ended, so ``reach`` is a prefix per design: then one running
+    maximum over the designs sorted by how far they reach gives every column (exactly
+    the same maxima as one masked maximum per column, J of them over q × n)."""
+    q, J = ks.shape[0], reach.shape[1]
+    count = reach.sum(axis=1)
+    if not np.array_equal(reach, np.arange(J)[None, :] < count[:, None]):
+        return np.stack([np.where(reach[:, j][None, :], ks, 0.0).max(axis=1)
+                         for j in range(J)], axis=1)
+    order = np.argsort(-count, kind="stable")
+    running = np.maximum.accumulate(ks[:, order], axis=1)
+    # designs reaching grid volume j: those with count > j, the first n_j in that order
+    n_j = np.sum(count[:, None] > np.arange(J)[None, :], axis=0)
+    out = np.zeros((q, J))
+    has = n_j > 0
+    out[:, has] = np.maximum(running[:, n_j[has] - 1], 0.0)
+    return out
 
 
 def _truncate(path: EquilibriumPath, p_max: float) -> tuple[EquilibriumPath, bool]:

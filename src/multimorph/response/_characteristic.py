@@ -74,7 +74,7 @@ __all__ = ["BALLOONING_VOLUME_RATIO", "DEFINITIONS_VERSION", "INFLECTION_PROMINE
 #: across it. 2: the first activation and the knee from the slope (stop 30). 3: no
 #: max-slope Pc before the chamber has ballooned (:data:`BALLOONING_VOLUME_RATIO`). 4: a
 #: lone unstable flag on a rising branch does not end the loading curve (stop 57,
-#: ``_observed._flicker``).
+#: ``_observed._lone_flags``).
 DEFINITIONS_VERSION = 4
 
 #: Path quantities the characteristic pressures can be read on.
@@ -142,6 +142,29 @@ def _vertex(x: np.ndarray, y: np.ndarray, i: int) -> tuple[float, float]:
         return float(x1), float(y1)
     c = y1 - a * x1 * x1 - b * x1
     return float(xv), float(a * xv * xv + b * xv + c)
+
+
+def _gradient(f: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """``np.gradient(f, x)`` of 1-D arrays (at least two points): the same second-order
+    differences inside and first-order ones at the ends, to the bit, without its general
+    n-D machinery (the characteristic pressures of a batch of curves call it four times a
+    curve)."""
+    f = np.asarray(f, float)
+    dx = np.diff(np.asarray(x, float))
+    if f.size < 2 or dx.size != f.size - 1:
+        return np.gradient(f, x)
+    out = np.empty_like(f)
+    if (dx == dx[0]).all():              # NumPy's own shortcut for an even spacing
+        out[1:-1] = (f[2:] - f[:-2]) / (2.0 * dx[0])
+        out[0] = (f[1] - f[0]) / dx[0]
+        out[-1] = (f[-1] - f[-2]) / dx[0]
+        return out
+    d1, d2 = dx[:-1], dx[1:]
+    out[1:-1] = (-(d2 / (d1 * (d1 + d2))) * f[:-2] + ((d2 - d1) / (d1 * d2)) * f[1:-1]
+                 + (d1 / (d2 * (d1 + d2))) * f[2:])
+    out[0] = (f[1] - f[0]) / dx[0]
+    out[-1] = (f[-1] - f[-2]) / dx[-1]
+    return out
 
 
 def _monotone(P: np.ndarray, k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -251,7 +274,7 @@ def critical_pressure(path: EquilibriumPath, loading: EquilibriumPath | None = N
         before = P <= path.pressure[i]
         j = None
         if before.sum() >= 4:
-            slope = np.gradient(k[before], P[before])
+            slope = _gradient(k[before], P[before])
             j = _first_inflection(k[before], slope,
                                   None if early is None else early[before])
         if j is not None:
@@ -263,7 +286,7 @@ def critical_pressure(path: EquilibriumPath, loading: EquilibriumPath | None = N
         return pc, "limit_point", kc
     if len(P) < 3:
         return None, None, None
-    slope = np.gradient(k, P)
+    slope = _gradient(k, P)
     j = _first_inflection(k, slope, early)
     if j is None:
         ballooned = slope if early is None else np.where(early, -np.inf, slope)
@@ -299,8 +322,8 @@ def hardening_pressure(loading: EquilibriumPath, pc: float | None,
     P, k = _monotone(loading.pressure[start:], loading.curvature[start:])
     if len(P) < 4:
         return None, None
-    slope = np.gradient(k, P)
-    curv = np.gradient(slope, P)
+    slope = _gradient(k, P)
+    curv = _gradient(slope, P)
     above = np.flatnonzero(P >= pc)
     if above.size == 0:
         return None, None

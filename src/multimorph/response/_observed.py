@@ -11,7 +11,7 @@ Snap landing points are interpolated linearly along the path at the snap pressur
 marked in ``extra["snap"]`` (1.0 where the point was reached by a jump).
 
 A lone point flagged unstable between two stable ones, with the pressure rising into it and
-out of it, is walked through (:func:`_flicker`, definitions version 4): the FE's stability
+out of it, is walked through (:func:`_lone_flags`, definitions version 4): the FE's stability
 test can flag one such point at the steepest rise, and taken as the end of the stable
 branch it cut the loading curve there (no later point at that pressure to land on).
 """
@@ -55,19 +55,29 @@ def observed_positions(pressure: np.ndarray, stable: np.ndarray) -> tuple[np.nda
     >>> pos.tolist(), snap.tolist(), ok
     ([0.0, 1.0, 2.0, 5.5, 6.0, 7.0], [False, False, False, True, False, False], True)
     """
-    # Python floats and bools: the walk reads one element at a time, which is several
-    # times faster on lists than on NumPy scalars (the same IEEE doubles, the same result)
-    P = np.asarray(pressure, float).tolist()
-    stable_mask = np.asarray(stable, bool).tolist()
-    n = len(P)
+    Pa = np.asarray(pressure, float)
+    sa = np.asarray(stable, bool)
+    n = Pa.shape[0]
+    # step[i]: the walk goes on from point i to i + 1 (rising to a stable point, or to a
+    # lone unstable flag, _lone_flags); a run of such steps is taken at once
+    step = np.zeros(max(n - 1, 0), bool)
+    if n > 1:
+        up = Pa[1:] > Pa[:-1]
+        step = up & (sa[1:] | _lone_flags(Pa, sa, up)[1:])
+    stops = np.append(np.flatnonzero(~step), max(n - 1, 0))
+    # Python floats and bools for the snap search: it reads one element at a time, which
+    # is several times faster on lists than on NumPy scalars (the same IEEE doubles)
+    P = Pa.tolist()
+    stable_mask = sa.tolist()
     pos, snap = [0.0], [False]
     i = 0
     complete = True
     while i < n - 1:
-        if P[i + 1] > P[i] and (stable_mask[i + 1] or _flicker(P, stable_mask, i + 1)):
-            pos.append(float(i + 1))
-            snap.append(False)
-            i += 1
+        if step[i]:
+            end = int(stops[np.searchsorted(stops, i)])    # the first point not stepped from
+            pos.extend(float(m) for m in range(i + 1, end + 1))
+            snap.extend([False] * (end - i))
+            i = end
             continue
         p_star = P[i]
         landing = None
@@ -84,16 +94,18 @@ def observed_positions(pressure: np.ndarray, stable: np.ndarray) -> tuple[np.nda
     return np.asarray(pos), np.asarray(snap, bool), complete
 
 
-def _flicker(P: list[float], stable: list[bool], i: int) -> bool:
-    """Whether point ``i``, flagged unstable, is a lone flag on a rising branch: both
-    neighbours stable and the pressure rising into it and out of it. A branch loses
-    stability at a fold (the pressure turns) or at a bifurcation, past which it stays
-    unstable for a stretch; a single flagged point between two stable ones with the
-    pressure still rising is the stability test's reading of a near-singular tangent at
-    the steepest rise (a negative pivot of the factorisation; on 23 of the 2,818 FE paths of
-    the data set, docs/validation.md §1), and the loading curve goes on through it."""
-    return (0 < i < len(P) - 1 and not stable[i] and stable[i - 1] and stable[i + 1]
-            and P[i - 1] < P[i] < P[i + 1])
+def _lone_flags(P: np.ndarray, stable: np.ndarray, up: np.ndarray) -> np.ndarray:
+    """Points flagged unstable that are lone flags on a rising branch: both neighbours
+    stable and the pressure rising into them and out of them (``up[i]``: P[i+1] > P[i]).
+    A branch loses stability at a fold (the pressure turns) or at a bifurcation, past
+    which it stays unstable for a stretch; a single flagged point between two stable ones
+    with the pressure still rising is the stability test's reading of a near-singular
+    tangent at the steepest rise (a negative pivot of the factorisation; on 23 of the
+    2,818 FE paths of the data set, docs/validation.md §1), and the loading curve goes on
+    through it."""
+    lone = np.zeros(P.shape[0], bool)
+    lone[1:-1] = ~stable[1:-1] & stable[:-2] & stable[2:] & up[:-1] & up[1:]
+    return lone
 
 
 def _interp_path(path: EquilibriumPath, pos: np.ndarray, snap: np.ndarray) -> EquilibriumPath:
@@ -109,7 +121,7 @@ def _interp_path(path: EquilibriumPath, pos: np.ndarray, snap: np.ndarray) -> Eq
     kw["stable"] = np.ones(pos.shape[0], bool)
     extra = {k: at(v) for k, v in path.extra.items() if np.asarray(v).dtype != bool}
     extra["snap"] = snap.astype(float)
-    return EquilibriumPath(**kw, extra=extra)
+    return EquilibriumPath._derived(extra, **kw)
 
 
 def observed_curves(path: EquilibriumPath) -> tuple[EquilibriumPath, EquilibriumPath]:

@@ -70,6 +70,20 @@ class EquilibriumPath:
             arr.setflags(write=False)
             object.__setattr__(self, name, arr)
 
+    @classmethod
+    def _derived(cls, extra: dict[str, np.ndarray], **arrays: np.ndarray) -> EquilibriumPath:
+        """A path built from a checked one (interpolated along it): its arrays are 1-D,
+        finite and of one length by construction, so they are only made read-only, not
+        checked again (the observed curves of every response; a batch builds two per
+        curve)."""
+        obj = object.__new__(cls)
+        for name in PATH_ARRAYS:
+            arr = np.asarray(arrays[name], dtype=bool if name == "stable" else float)
+            arr.setflags(write=False)
+            object.__setattr__(obj, name, arr)
+        object.__setattr__(obj, "extra", extra)
+        return obj
+
     def __len__(self) -> int:
         return int(self.pressure.shape[0])
 
