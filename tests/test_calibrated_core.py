@@ -526,3 +526,23 @@ def test_a_cross_validated_kernel_lowers_the_leave_one_out_loss_and_is_a_gp() ->
     assert cv.scale[0] == pytest.approx(sd * math.sqrt(float(r @ a) / n), rel=1e-9)
     far = cv.predict(np.full((1, 3), 1e3), std=True)[1][0, 0]   # no data near: the prior
     assert far == pytest.approx(cv.scale[0] * math.sqrt(1.0 + cv.noise), rel=1e-6)
+
+
+def test_matern52_is_the_closed_form_and_the_support_maximum_the_masked_one():
+    """The in-place Matérn-5/2 kernel is (1 + √5 r + 5r²/3) exp(−√5 r) of the scaled
+    distance, and the support's running maximum gives, at every grid volume, the largest
+    correlation with a training design that reaches it (a prefix per design, or any mask
+    through the fallback)."""
+    from multimorph.calibrated._model import _best_reaching
+
+    rng = np.random.default_rng(7)
+    a, b, length = rng.normal(size=(30, 5)), rng.normal(size=(40, 5)), rng.uniform(0.3, 3, 5)
+    r = np.sqrt((((a[:, None, :] - b[None, :, :]) / length) ** 2).sum(axis=2))
+    closed = (1 + np.sqrt(5) * r + 5 / 3 * r**2) * np.exp(-np.sqrt(5) * r)
+    assert np.allclose(matern52(a, b, length), closed, rtol=1e-12, atol=1e-14)
+    ks = matern52(a, b, length)
+    for reach in (np.arange(12)[None, :] < rng.integers(0, 13, 40)[:, None],
+                  rng.uniform(size=(40, 12)) < 0.5):
+        masked = np.stack([np.where(reach[:, j][None, :], ks, 0.0).max(axis=1)
+                           for j in range(12)], axis=1)
+        assert np.array_equal(_best_reaching(ks, reach), masked)

@@ -311,3 +311,16 @@ def test_two_unstable_points_on_a_rising_branch_still_end_the_stable_branch():
     st[40:42] = False
     loading, _ = observed_curves(_path(P, k, stable=st))
     assert loading.pressure[-1] == pytest.approx(P[39])
+
+
+def test_the_slope_is_numpys_gradient_to_the_bit():
+    """The characteristic pressures read dκ/dP with ``np.gradient``'s formula (second-order
+    inside, first-order at the ends, its even-spacing shortcut), written for 1-D arrays."""
+    from multimorph.response._characteristic import _gradient
+
+    rng = np.random.default_rng(3)
+    for n in (2, 3, 5, 40, 96):
+        for even in (False, True):
+            x = 0.37 * np.arange(n) + 2.0 if even else np.cumsum(rng.uniform(1e-3, 3.0, n))
+            f = np.cumsum(rng.normal(size=n))
+            assert np.array_equal(_gradient(f, x), np.gradient(f, x))
