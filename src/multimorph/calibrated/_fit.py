@@ -278,7 +278,9 @@ def fe_training_data(kind: str, sets: dict[str, ReferenceSet] | None = None,
     n = len(rows["set"])
     if ritz and n:
         _log(f"{kind}: {n} FE designs; computing their Ritz features")
+        t0 = time.monotonic()
         feats = ritz_features(rows["cell"])
+        _log(f"{kind}: Ritz features of {n} designs in {(time.monotonic() - t0) / 60:.1f} min")
     else:
         feats = np.full((n, 4), np.nan)
     anchors = np.array(rows["anchors"], float).reshape(n, 2)
@@ -755,19 +757,32 @@ def _fit_one(kind: str, data: TrainingData, prefix: str, arrays: dict[str, np.nd
         return
     box = replace(Box.from_spec(kind, reference_spec(KIND_SETS[kind][0])),
                   derived=DERIVED_INPUTS.get(kind, ()))
+    label = f"{kind}{' (fast)' if prefix else ''}"
+    t0 = time.monotonic()
+
+    def done(part: str) -> None:
+        # a refit of the bending kind takes 1.5-2 h: say where it is (stop 57)
+        _log(f"{label}: {part} fitted on {int(train.sum())} designs, "
+             f"{(time.monotonic() - t0) / 60:.1f} min")
+
     gp, fmean, fstd = fit_kind(data, box)
+    done("path GP")
     pgp = fit_pressure(data, box, fmean, fstd, train=train)
+    done("pressure GP")
     p = f"{prefix}{kind}/"
     arrays.update(gp.to_arrays(p))
     arrays.update(pgp.to_arrays(f"{p}pressure/"))
     sgp = fit_signal(data, box, fmean, fstd, train=train) if kind in SIGNAL_KINDS else None
     if sgp is not None:
         arrays.update(sgp.to_arrays(f"{p}signal/"))
+        done("signal GP")
     lgp = (fit_log_signal(data, box, fmean, fstd, train=train) if kind in LOG_SIGNAL_KINDS
            else None)
     if lgp is not None:
         arrays.update(lgp.to_arrays(f"{p}log_signal/"))
+        done("log signal GP")
     anchors = fit_anchors(data, box, fmean, fstd, train=train)
+    done("anchor GPs")
     for name, agp in anchors.items():
         arrays.update(agp.to_arrays(f"{p}anchor_{name}/"))
     arrays[f"{p}feature_mean"] = fmean
