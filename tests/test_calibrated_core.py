@@ -546,3 +546,56 @@ def test_matern52_is_the_closed_form_and_the_support_maximum_the_masked_one():
         masked = np.stack([np.where(reach[:, j][None, :], ks, 0.0).max(axis=1)
                            for j in range(12)], axis=1)
         assert np.array_equal(_best_reaching(ks, reach), masked)
+
+
+def test_an_interrupted_fit_resumes_from_the_gps_it_had(tmp_path):
+    """Each GP of a kind is kept as soon as it is fitted (``_fit.resumable``): a second
+    call with the same key loads it instead of fitting (the same predictions, the same
+    arrays), and a file that cannot be read is fitted again."""
+    from multimorph.calibrated._fit import resumable
+
+    rng = np.random.default_rng(11)
+    x = rng.uniform(size=(40, 3))
+    y = np.sin(3 * x[:, :1]) + x[:, 1:2]
+    calls = []
+
+    def fit():
+        calls.append(1)
+        return {"gp": fit_gp(x, y, np.ones_like(y, bool), restarts=0),
+                "fmean": np.array([1.0, 2.0])}
+
+    first = resumable(tmp_path, "k", "path", fit)
+    again = resumable(tmp_path, "k", "path", fit)
+    assert len(calls) == 1
+    q = rng.uniform(size=(5, 3))
+    assert np.array_equal(first["gp"].predict(q), again["gp"].predict(q))
+    assert np.array_equal(again["fmean"], [1.0, 2.0])
+    (tmp_path / "k-path.npz").write_bytes(b"not an npz")
+    resumable(tmp_path, "k", "path", fit)
+    assert len(calls) == 2
+    resumable(tmp_path, "other", "path", fit)           # another key: fitted
+    assert len(calls) == 3
+
+
+def test_the_resume_key_follows_the_training_data():
+    """``_fit.fit_fingerprint``: one FE label moved, or the other variant, is another key;
+    the same data the same key."""
+    from multimorph.calibrated._fit import TrainingData, fit_fingerprint
+
+    rng = np.random.default_rng(2)
+    n, J = 12, len(T_GRID)
+
+    def data(anchors):
+        return TrainingData(
+            kind="bending", set_name=np.array(["s"] * n), design=np.arange(n),
+            groups=rng.uniform(size=(n, 3)) * 0 + 0.5, features=np.ones((n, 4)),
+            y=np.zeros((n, J, 3)), mask=np.ones((n, J), bool), holdout=np.zeros(n, bool),
+            cells=[], paths=[], anchors=anchors)
+
+    box = Box("bending", ("a", "b", "c"), np.zeros(3), np.ones(3))
+    a = np.full((n, 2), -1.0)
+    b = a.copy()
+    b[3, 0] = -1.01
+    assert fit_fingerprint(data(a), box, "") == fit_fingerprint(data(a.copy()), box, "")
+    assert fit_fingerprint(data(a), box, "") != fit_fingerprint(data(b), box, "")
+    assert fit_fingerprint(data(a), box, "") != fit_fingerprint(data(a), box, "fast/")

@@ -26,6 +26,7 @@ provenance (``data/model.json``).
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
@@ -33,6 +34,7 @@ import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -744,8 +746,80 @@ def emulated_features(emu: MultiOutputGP, box: Box, cells: list[Any],
     return out
 
 
+#: Where :func:`fit_and_save` keeps each GP of a kind as soon as it is fitted, so that an
+#: interrupted refit (a bending refit runs 1.5-2 h on 2 cores) resumes from the GPs it had:
+#: ``$MULTIMORPH_FIT_RESUME``, default ``~/.cache/multimorph/fit-resume``. A file is re-used
+#: only for the same training data, box, variant and fitting code (:func:`fit_fingerprint`);
+#: the files of a fit are removed once its model is written.
+FIT_RESUME_ENV = "MULTIMORPH_FIT_RESUME"
+
+
+def fit_resume_folder() -> Path:
+    """The folder of :data:`FIT_RESUME_ENV`."""
+    value = os.environ.get(FIT_RESUME_ENV, "")
+    return Path(value) if value else Path.home() / ".cache" / "multimorph" / "fit-resume"
+
+
+def fit_fingerprint(data: TrainingData, box: Box, prefix: str) -> str:
+    """A key of what a kind's GPs are fitted from: its training data (groups, features,
+    grid values and masks, split, anchors, end levels, censoring, straight features), its
+    box, the variant (``prefix``) and the source of the fitting code (this module and
+    :mod:`._gp`)."""
+    from multimorph.calibrated import _gp
+
+    h = hashlib.sha256(repr((data.kind, prefix, box.names, box.derived)).encode())
+    for a in (data.groups, data.features, data.y, data.mask, data.holdout, data.anchors,
+              data.end, data.censor, data.straight, box.low, box.high):
+        if a is None:
+            h.update(b"-")
+            continue
+        a = np.ascontiguousarray(a)
+        h.update(f"{a.dtype}{a.shape}".encode())
+        h.update(a.tobytes())
+    for module_file in (__file__, _gp.__file__):
+        h.update(Path(module_file).read_bytes())
+    return h.hexdigest()[:20]
+
+
+def resumable(folder: Path, key: str, part: str, fit: Callable[[], dict[str, Any]],
+              ) -> dict[str, Any]:
+    """``fit()`` (a dict of :class:`MultiOutputGP` and arrays), or what an earlier call
+    with the same ``key`` and ``part`` saved in ``folder``; saved there (atomically) after
+    fitting. A file that cannot be read is fitted again."""
+    path = folder / f"{key}-{part}.npz"
+    if path.exists():
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                stored = {k: z[k] for k in z.files}
+            names = json.loads(str(stored.pop("__names__")))
+            out: dict[str, Any] = {}
+            for name, what in names.items():
+                out[name] = (MultiOutputGP.from_arrays(stored, f"{name}/") if what == "gp"
+                             else stored[name])
+            _log(f"{part}: re-used from an interrupted fit ({path.name})")
+            return out
+        except (OSError, ValueError, KeyError) as exc:
+            _log(f"{part}: {path.name} unreadable ({exc}); fitting it again")
+    out = fit()
+    flat: dict[str, np.ndarray] = {}
+    names = {}
+    for name, value in out.items():
+        if isinstance(value, MultiOutputGP):
+            flat.update(value.to_arrays(f"{name}/"))
+            names[name] = "gp"
+        else:
+            flat[name] = np.asarray(value)
+            names[name] = "array"
+    flat["__names__"] = np.array(json.dumps(names))
+    folder.mkdir(parents=True, exist_ok=True)
+    tmp = folder / f".{key}-{part}.tmp.npz"
+    np.savez(tmp, **flat)
+    os.replace(tmp, path)
+    return out
+
+
 def _fit_one(kind: str, data: TrainingData, prefix: str, arrays: dict[str, np.ndarray],
-             manifest: dict[str, Any]) -> None:
+             manifest: dict[str, Any], resume_keys: set[str] | None = None) -> None:
     """Fit one kind's GP on ``data`` and store it under ``prefix`` (unless too few designs)."""
     kf = data_features(data)
     train = ~data.holdout & np.all(np.isfinite(kf), axis=1)
@@ -765,23 +839,38 @@ def _fit_one(kind: str, data: TrainingData, prefix: str, arrays: dict[str, np.nd
         _log(f"{label}: {part} fitted on {int(train.sum())} designs, "
              f"{(time.monotonic() - t0) / 60:.1f} min")
 
-    gp, fmean, fstd = fit_kind(data, box)
+    folder = fit_resume_folder()
+    key = fit_fingerprint(data, box, prefix)
+    if resume_keys is not None:
+        resume_keys.add(key)
+
+    def path_gp() -> dict[str, Any]:
+        gp, fmean, fstd = fit_kind(data, box)
+        return {"gp": gp, "fmean": fmean, "fstd": fstd}
+
+    got = resumable(folder, key, "path", path_gp)
+    gp, fmean, fstd = got["gp"], got["fmean"], got["fstd"]
     done("path GP")
-    pgp = fit_pressure(data, box, fmean, fstd, train=train)
+    pgp = resumable(folder, key, "pressure", lambda: {
+        "gp": fit_pressure(data, box, fmean, fstd, train=train)})["gp"]
     done("pressure GP")
     p = f"{prefix}{kind}/"
     arrays.update(gp.to_arrays(p))
     arrays.update(pgp.to_arrays(f"{p}pressure/"))
-    sgp = fit_signal(data, box, fmean, fstd, train=train) if kind in SIGNAL_KINDS else None
+    sgp = (resumable(folder, key, "signal", lambda: {
+        "gp": fit_signal(data, box, fmean, fstd, train=train)})["gp"]
+        if kind in SIGNAL_KINDS else None)
     if sgp is not None:
         arrays.update(sgp.to_arrays(f"{p}signal/"))
         done("signal GP")
-    lgp = (fit_log_signal(data, box, fmean, fstd, train=train) if kind in LOG_SIGNAL_KINDS
-           else None)
+    lgp = (resumable(folder, key, "log_signal", lambda: {
+        "gp": fit_log_signal(data, box, fmean, fstd, train=train)})["gp"]
+        if kind in LOG_SIGNAL_KINDS else None)
     if lgp is not None:
         arrays.update(lgp.to_arrays(f"{p}log_signal/"))
         done("log signal GP")
-    anchors = fit_anchors(data, box, fmean, fstd, train=train)
+    anchors = resumable(folder, key, "anchors",
+                        lambda: dict(fit_anchors(data, box, fmean, fstd, train=train)))
     done("anchor GPs")
     for name, agp in anchors.items():
         arrays.update(agp.to_arrays(f"{p}anchor_{name}/"))
@@ -839,6 +928,7 @@ def fit_and_save(*, emulators: bool = False, kinds: tuple[str, ...] | None = Non
 
     t0 = time.monotonic()
     sets = load_reference()
+    resume_keys: set[str] = set()    # the GPs kept for a resume (:func:`resumable`)
     arrays: dict[str, np.ndarray] = {"t_grid": T_GRID}
     manifest: dict[str, Any] = {"format": "multimorph-calibrated-model/1",
                                 "code_version": code_version(), "kinds": {},
@@ -892,13 +982,17 @@ def fit_and_save(*, emulators: bool = False, kinds: tuple[str, ...] | None = Non
                     and "bending" in manifest["fast_kinds" if prefix else "kinds"]):
                 d = replace(d, straight=straight_of(arrays, manifest, d, bool(prefix)))
             _fit_one(kind, d, prefix, arrays,
-                     manifest["fast_kinds" if prefix else "kinds"])
+                     manifest["fast_kinds" if prefix else "kinds"], resume_keys)
     manifest["fit_time_s"] = round(time.monotonic() - t0, 1)
     tmp = MODEL_FILE.with_name(f".{MODEL_FILE.stem}.tmp.npz")
     np.savez_compressed(tmp, **arrays)
     os.replace(tmp, MODEL_FILE)
     MODEL_MANIFEST.write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
     _log(f"wrote {MODEL_FILE} in {manifest['fit_time_s']} s")
+    folder = fit_resume_folder()
+    for key in resume_keys:         # the model holds them now
+        for done in folder.glob(f"{key}-*.npz"):
+            done.unlink(missing_ok=True)
 
 
 def finite_log(x: float) -> float:
