@@ -765,7 +765,7 @@ def fit_fingerprint(data: TrainingData, box: Box, prefix: str) -> str:
     grid values and masks, split, anchors, end levels, censoring, straight features), its
     box, the variant (``prefix``) and the source of the fitting code (this module and
     :mod:`._gp`)."""
-    from multimorph.calibrated import _gp
+    import inspect
 
     h = hashlib.sha256(repr((data.kind, prefix, box.names, box.derived)).encode())
     for a in (data.groups, data.features, data.y, data.mask, data.holdout, data.anchors,
@@ -776,8 +776,8 @@ def fit_fingerprint(data: TrainingData, box: Box, prefix: str) -> str:
         a = np.ascontiguousarray(a)
         h.update(f"{a.dtype}{a.shape}".encode())
         h.update(a.tobytes())
-    for module_file in (__file__, _gp.__file__):
-        h.update(Path(module_file).read_bytes())
+    for module_file in (__file__, inspect.getsourcefile(fit_gp)):
+        h.update(Path(str(module_file)).read_bytes())
     return h.hexdigest()[:20]
 
 
