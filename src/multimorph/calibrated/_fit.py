@@ -763,8 +763,8 @@ def fit_resume_folder() -> Path:
 def fit_fingerprint(data: TrainingData, box: Box, prefix: str) -> str:
     """A key of what a kind's GPs are fitted from: its training data (groups, features,
     grid values and masks, split, anchors, end levels, censoring, straight features), its
-    box, the variant (``prefix``) and the source of the fitting code (this module and
-    :mod:`._gp`)."""
+    box, the variant (``prefix``) and the source of the fitting code (this module,
+    :mod:`._gp` and :mod:`._box`, whose derived inputs the GPs read)."""
     import inspect
 
     h = hashlib.sha256(repr((data.kind, prefix, box.names, box.derived)).encode())
@@ -776,7 +776,7 @@ def fit_fingerprint(data: TrainingData, box: Box, prefix: str) -> str:
         a = np.ascontiguousarray(a)
         h.update(f"{a.dtype}{a.shape}".encode())
         h.update(a.tobytes())
-    for module_file in (__file__, inspect.getsourcefile(fit_gp)):
+    for module_file in (__file__, inspect.getsourcefile(fit_gp), inspect.getsourcefile(Box)):
         h.update(Path(str(module_file)).read_bytes())
     return h.hexdigest()[:20]
 
