@@ -34,6 +34,7 @@ import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -490,6 +491,14 @@ def add_signal(kinds: tuple[str, ...] = ("bending",)) -> dict[str, Any]:
 _GP_KEYS = ("x", "length", "noise", "mask", "weights", "coef", "scale", "chol")
 
 
+def _fit_part(part: str, data: TrainingData, box: Box, fmean: np.ndarray, fstd: np.ndarray,
+              train: np.ndarray) -> dict[str, Any]:
+    """One :data:`PARTS` fit as :func:`resumable` keeps it: the anchors' dict of GPs, or
+    ``{"gp": gp}``."""
+    gp = PARTS[part](data, box, fmean, fstd, train=train)
+    return dict(gp) if part == "anchors" else {"gp": gp}
+
+
 def add_part(part: str, kinds: tuple[str, ...] = ("bending",), *,
              straight_of: StraightOf | None = None) -> dict[str, Any]:
     """Fit one GP of ``kinds`` (``part``: "signal", "pressure", "path" or "anchors" (the Pc
@@ -504,6 +513,7 @@ def add_part(part: str, kinds: tuple[str, ...] = ("bending",), *,
         raise ValueError(f"fit: unknown part {part!r}; expected one of {sorted(PARTS)}")
     t0 = time.monotonic()
     sets = load_reference()
+    resume_keys: set[str] = set()    # the GPs kept for a resume (:func:`resumable`)
     with np.load(MODEL_FILE, allow_pickle=False) as z:
         arrays = {k: z[k] for k in z.files}
     manifest = json.loads(MODEL_MANIFEST.read_text())
@@ -529,9 +539,17 @@ def add_part(part: str, kinds: tuple[str, ...] = ("bending",), *,
                       tuple(info.get("derived_inputs", ())))
             kf = data_features(d)
             train = ~d.holdout & np.all(np.isfinite(kf), axis=1)
-            gp = PARTS[part](d, box, np.asarray(arrays[f"{p}feature_mean"]),
-                             np.asarray(arrays[f"{p}feature_std"]), train=train)
-            gps = gp if part == "anchors" else {"": gp}
+            fmean = np.asarray(arrays[f"{p}feature_mean"])
+            fstd = np.asarray(arrays[f"{p}feature_std"])
+            # kept as soon as it is fitted, like fit_and_save's (a bending anchor refit
+            # runs half an hour and more): the key adds the shipped feature scaling
+            rkey = hashlib.sha256((fit_fingerprint(d, box, prefix) + fmean.tobytes().hex()
+                                   + fstd.tobytes().hex()).encode()).hexdigest()[:20]
+            resume_keys.add(rkey)
+            got = resumable(fit_resume_folder(), rkey, f"add-{part}",
+                            partial(_fit_part, part, d, box, fmean, fstd, train))
+            gp = got if part == "anchors" else got["gp"]
+            gps = got if part == "anchors" else {"": gp}
             if part == "anchors":  # all of them: a kind may have had more (ANCHOR_CV)
                 arrays = {k: v for k, v in arrays.items() if not k.startswith(f"{p}anchor_")}
             for name, g in gps.items():
@@ -567,6 +585,9 @@ def add_part(part: str, kinds: tuple[str, ...] = ("bending",), *,
     os.replace(tmp, MODEL_FILE)
     MODEL_MANIFEST.write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
     _log(f"wrote {MODEL_FILE} ({part} GPs) in {time.monotonic() - t0:.1f} s")
+    for rkey in resume_keys:        # the model holds them now
+        for kept in fit_resume_folder().glob(f"{rkey}-*.npz"):
+            kept.unlink(missing_ok=True)
     return out
 
 
