@@ -582,13 +582,12 @@ def test_the_resume_key_follows_the_training_data():
     the same data the same key."""
     from multimorph.calibrated._fit import TrainingData, fit_fingerprint
 
-    rng = np.random.default_rng(2)
     n, J = 12, len(T_GRID)
 
     def data(anchors):
         return TrainingData(
             kind="bending", set_name=np.array(["s"] * n), design=np.arange(n),
-            groups=rng.uniform(size=(n, 3)) * 0 + 0.5, features=np.ones((n, 4)),
+            groups=np.full((n, 3), 0.5), features=np.ones((n, 4)),
             y=np.zeros((n, J, 3)), mask=np.ones((n, J), bool), holdout=np.zeros(n, bool),
             cells=[], paths=[], anchors=anchors)
 
@@ -599,3 +598,5 @@ def test_the_resume_key_follows_the_training_data():
     assert fit_fingerprint(data(a), box, "") == fit_fingerprint(data(a.copy()), box, "")
     assert fit_fingerprint(data(a), box, "") != fit_fingerprint(data(b), box, "")
     assert fit_fingerprint(data(a), box, "") != fit_fingerprint(data(a), box, "fast/")
+    scaling = (np.zeros(4), np.ones(4))
+    assert fit_fingerprint(data(a), box, "", scaling) != fit_fingerprint(data(a), box, "")

@@ -543,8 +543,7 @@ def add_part(part: str, kinds: tuple[str, ...] = ("bending",), *,
             fstd = np.asarray(arrays[f"{p}feature_std"])
             # kept as soon as it is fitted, like fit_and_save's (a bending anchor refit
             # runs half an hour and more): the key adds the shipped feature scaling
-            rkey = hashlib.sha256((fit_fingerprint(d, box, prefix) + fmean.tobytes().hex()
-                                   + fstd.tobytes().hex()).encode()).hexdigest()[:20]
+            rkey = fit_fingerprint(d, box, prefix, (fmean, fstd))
             resume_keys.add(rkey)
             got = resumable(fit_resume_folder(), rkey, f"add-{part}",
                             partial(_fit_part, part, d, box, fmean, fstd, train))
@@ -781,16 +780,18 @@ def fit_resume_folder() -> Path:
     return Path(value) if value else Path.home() / ".cache" / "multimorph" / "fit-resume"
 
 
-def fit_fingerprint(data: TrainingData, box: Box, prefix: str) -> str:
+def fit_fingerprint(data: TrainingData, box: Box, prefix: str,
+                    extra: tuple[np.ndarray, ...] = ()) -> str:
     """A key of what a kind's GPs are fitted from: its training data (groups, features,
     grid values and masks, split, anchors, end levels, censoring, straight features), its
-    box, the variant (``prefix``) and the source of the fitting code (this module,
-    :mod:`._gp` and :mod:`._box`, whose derived inputs the GPs read)."""
+    box, the variant (``prefix``), any ``extra`` arrays they read (a one-part refit: the
+    shipped feature scaling) and the source of the fitting code (this module, :mod:`._gp`
+    and :mod:`._box`, whose derived inputs the GPs read)."""
     import inspect
 
     h = hashlib.sha256(repr((data.kind, prefix, box.names, box.derived)).encode())
     for a in (data.groups, data.features, data.y, data.mask, data.holdout, data.anchors,
-              data.end, data.censor, data.straight, box.low, box.high):
+              data.end, data.censor, data.straight, box.low, box.high, *extra):
         if a is None:
             h.update(b"-")
             continue
@@ -817,7 +818,7 @@ def resumable(folder: Path, key: str, part: str, fit: Callable[[], dict[str, Any
             for name, what in names.items():
                 out[name] = (MultiOutputGP.from_arrays(stored, f"{name}/") if what == "gp"
                              else stored[name])
-            _log(f"{part}: re-used from an interrupted fit ({path.name})")
+            _log(f"{part} GP(s) re-used from an interrupted fit ({path.name})")
             return out
         except (OSError, ValueError, KeyError) as exc:
             _log(f"{part}: {path.name} unreadable ({exc}); fitting it again")
