@@ -256,8 +256,9 @@ def fit_gp(x: np.ndarray, y: np.ndarray, mask: np.ndarray, *, fit_outputs: np.nd
     from the kernel of the pass before, since stop 58: on the bending anchors (969 designs)
     it reaches the same kernel as restarting (length scales within 10⁻³, predictions within
     1.1·10⁻⁵ in log P) in 165 s on one core for both later passes of both anchors, where
-    each pass with four starts takes 692 s (the first: 493 s Pc, 199 s Ph)). The
-    predictive variance carries those noises.
+    the first passes, four starts each, took 692 s (Pc 493 s, Ph 199 s); a whole bending
+    refit's anchors 10–14 min a variant instead of 24). The predictive variance carries
+    those noises.
     """
     from scipy.linalg import cho_factor, cho_solve
     from sklearn.gaussian_process import GaussianProcessRegressor
