@@ -373,7 +373,9 @@ def test_a_bending_cell_of_a_wall_that_does_not_lock_hardens_later() -> None:
     if not shift.get("log_factor"):
         pytest.skip("the shipped law map has no Ph factor")
     assert 0.0 < shift["log_factor"] < 0.4 and shift["training_designs"] >= 3
-    for c20, moves in ((5e3, True), (1e3, False)):
+    # c20/c10 0.04: a membrane with a limit point, below the threshold (the 0.02 of stop
+    # 58's test runs away at its snap on stop 59's map, Jm 72: no Ph to compare)
+    for c20, moves in ((5e3, True), (2e3, False)):
         wall = Material("yeoh", {"c10": 5e4, "c20": c20, "c30": 0.0}, break_stretch=6.0)
         eff, _ = effective_material(wall, model.law_map)
         r = model.responses([_cell(wall)], 200e3, fast=True)[0]

@@ -295,17 +295,22 @@ def test_where_the_anchor_and_the_path_disagree_the_band_and_the_cell_line_say_s
     Jm 9–14 cell no fit has seen): the model's path reads its Pc at 4.4 kPa, its anchor at
     32.5 kPa, FE at 4.5. The anchor is left out (more than MAX_FACTOR from the path's
     reading), so the reported Pc is the path's; its ±1σ band must then reach over the
-    anchor's own ±1σ, FE must lie within the path's 2σ (stop 54's model: path 4.8 kPa,
-    +6.5 %, 1.7σ; stop 53's read 4.6 kPa, 0.5σ: a 1σ band misses about a third of the
-    designs by its definition, docs/validation.md §3 the bands' coverage), and the
-    readable cell line (and a device's, for its module) must say so. (Until stop 44 the
-    case was ``bending_single_mirror`` #15, where the anchor was the right one; stop 45's
-    path reads it within 16 % and uses its anchor.)"""
+    anchor's own ±1σ, the path must be the right one of the two (FE within 15 % of it,
+    where the anchor is 6 times FE), and the readable cell line (and a device's, for its
+    module) must say so. (Until stop 44 the case was ``bending_single_mirror`` #15, where
+    the anchor was the right one; stop 45's path reads it within 16 % and uses its anchor.)
+
+    The band's lower side is the path's own σ, 2 % in log P here, and it understates the
+    path's error on this cell: stop 53's model read 4.6 kPa (0.5σ from FE), stop 54's 4.8
+    (+6.5 %, 1.7σ), stop 59's 5.0 (+11 %, 3.3σ). At Jm 9–14 the errors' tail is heavier
+    than the band (docs/validation.md §4 stop 44 and stop 59; the pool's coverage is read
+    by validate, not on one design), so this case checks the choice of reading, not the
+    band's width."""
     import math
 
     from multimorph.calibrated._anchor import MAX_FACTOR
     from multimorph.calibrated._dataset import load_reference
-    from multimorph.calibrated._validate import band_z, fe_response
+    from multimorph.calibrated._validate import fe_response
     from multimorph.calibrated.validate import requested_pressure
     from multimorph.cli._cell import model_line
 
@@ -325,7 +330,7 @@ def test_where_the_anchor_and_the_path_disagree_the_band_and_the_cell_line_say_s
     lo, hi = cal["critical_pressure_range"]
     assert lo < own < anchor < hi
     fe = fe_response(path, cell, "bending").characteristic.critical
-    assert band_z(resp, fe, "critical") < 2.0
+    assert abs(own / fe - 1.0) < 0.15 and anchor / fe > 4.0
     line = model_line({"model": "calibrated-fast", "calibration": cal})
     assert f"{own / 1e3:.3g} kPa" in line and f"{anchor / 1e3:.3g} kPa" in line
     assert "disagree" in line

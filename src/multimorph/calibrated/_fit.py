@@ -75,11 +75,14 @@ MODEL_MANIFEST = DATA_DIR / "model.json"
 #: stop 48 with the soft-bottom refinement, `bending_softbottom_mirror` (μb/μ 1.1–3.0,
 #: where the curves missed most; docs/validation.md §4 stop 48); since stop 52 with
 #: `bending_lowbt_mirror` (a weak bottom against the top wall, μb·hb/(μ·ht) mostly below
-#: 3.5, where the curves still missed after stop 51; docs/validation.md §4 stop 52).
+#: 3.5, where the curves still missed after stop 51; docs/validation.md §4 stop 52); since
+#: stop 59 with `bending_single3_mirror` (a third one-elastomer sample, μb/μ 1.0–1.1, where the
+#: curves missed most; docs/validation.md §4 stop 59).
 KIND_SETS = {"bending": ("bending", "bending_narrow", "bending_single", "bending_single2",
                          "bending_mirror", "bending_narrow_mirror", "bending_single_mirror",
                          "bending_single2_mirror", "bending3_mirror",
-                         "bending_softbottom_mirror", "bending_lowbt_mirror"),
+                         "bending_softbottom_mirror", "bending_lowbt_mirror",
+                         "bending_single3_mirror"),
              "stretching": ("stretching_mirror", "stretching_narrow_mirror",
                             "stretching2_mirror"),
              "twisting": ("twisting", "twisting2", "twisting_narrow")}
