@@ -418,7 +418,7 @@ def test_the_tilted_pc_anchor_is_the_mean_of_its_likelihood_and_cross_validated_
     cells = [ref.cell(int(r)) for r in np.flatnonzero(ref.ok)[:12]]
     for fast, variant in ((False, "kinds"), (True, "fast_kinds")):
         k = getattr(model, variant)["twisting"]
-        assert set(k.anchors) == {"pc", "pc_cv", "ph"}
+        assert set(k.anchors) == {"pc", "pc_cv", "ph", "ph_ratio"}
         assert all("_cv" not in name for name in getattr(model, variant)["bending"].anchors)
         both = model.grid(cells, fast=fast)
         one = []
@@ -431,9 +431,52 @@ def test_the_tilted_pc_anchor_is_the_mean_of_its_likelihood_and_cross_validated_
         sa, sb = (g.anchor_std[:, 0] for g in one)
         assert np.abs(a - b).max() > 1e-3   # two different GPs
         np.testing.assert_allclose(both.anchors[:, 0], 0.5 * (a + b), atol=1e-12)
-        np.testing.assert_allclose(both.anchors[:, 1], one[0].anchors[:, 1], atol=1e-12)
         s = both.anchor_std[:, 0]
         assert np.all(s >= np.minimum(sa, sb) - 1e-12) and np.all(s >= 0.5 * np.abs(a - b))
+
+
+def test_the_tilted_ph_anchor_is_the_mean_of_its_own_gp_and_pc_with_the_ratio() -> None:
+    """Since stop 59 the twisting kind's Ph anchor has a second member
+    (``_fit.ANCHOR_RATIO``): the Pc anchor's log Pc plus a GP of log(Ph / Pc). In both
+    variants the grid's log Ph is the mean of the direct GP's and that member's (each read
+    on a copy of the model that has only it), its variance their equal mixture's (the
+    ratio member's own the sum of Pc's and the ratio's); the ratio GP, fitted on FE labels
+    with Ph ≥ Pc, puts Ph at or above Pc; bending and stretching have no such member."""
+    from multimorph.calibrated._fit import ANCHOR_RATIO, load_reference
+
+    assert ANCHOR_RATIO == {"twisting": ("ph",)}
+    model = load_model()
+    ref = load_reference()["twisting"]
+    cells = [ref.cell(int(r)) for r in np.flatnonzero(ref.ok)[:12]]
+    for fast, variant in ((False, "kinds"), (True, "fast_kinds")):
+        kinds = getattr(model, variant)
+        k = kinds["twisting"]
+        assert all("ph_ratio" not in kinds[o].anchors for o in ("bending", "stretching"))
+        full = model.grid(cells, fast=fast)
+
+        pcs = {n: k.anchors[n] for n in ("pc", "pc_cv")}
+        direct, ratio = (_with_anchors(model, variant, {**pcs, "ph": k.anchors[ph]}, cells)
+                         for ph in ("ph", "ph_ratio"))     # the ratio's "Ph" is log(Ph / Pc)
+        pc, pc_sd = direct.anchors[:, 0], direct.anchor_std[:, 0]
+        np.testing.assert_allclose(full.anchors[:, 0], pc, atol=1e-12)
+        m1, s1 = direct.anchors[:, 1], direct.anchor_std[:, 1]
+        r, sr = ratio.anchors[:, 1], ratio.anchor_std[:, 1]
+        m2, s2 = pc + r, np.sqrt(pc_sd ** 2 + sr ** 2)
+        np.testing.assert_allclose(full.anchors[:, 1], 0.5 * (m1 + m2), atol=1e-12)
+        np.testing.assert_allclose(full.anchor_std[:, 1] ** 2,
+                                   0.5 * (s1 ** 2 + s2 ** 2) + 0.25 * (m1 - m2) ** 2,
+                                   rtol=1e-9)
+        assert np.abs(m1 - m2).max() > 1e-3        # two different members
+        assert np.all(r > -0.02)                   # Ph at or above Pc, within its scatter
+
+
+def _with_anchors(model, variant: str, anchors: dict, cells: list):
+    """The grid of ``cells`` on a copy of ``model`` whose twisting kind (``variant``:
+    "kinds" or "fast_kinds") has only ``anchors``."""
+    kinds = getattr(model, variant)
+    m = copy.copy(model)
+    setattr(m, variant, {**kinds, "twisting": replace(kinds["twisting"], anchors=anchors)})
+    return m.grid(cells, fast=variant == "fast_kinds")
 
 
 def test_the_tilted_strip_shear_is_the_mean_of_three_gps() -> None:

@@ -81,16 +81,28 @@ class CalibrationWarning(UserWarning):
 
 def _anchor_prediction(gps: dict[str, MultiOutputGP], name: str, x: np.ndarray,
                        ) -> tuple[np.ndarray, np.ndarray]:
-    """An anchor's predicted log(P/μ) and its std at inputs ``x``: its GP's, or with a
-    cross-validated twin (``<name>_cv``, ``_fit.ANCHOR_CV``) the mean of the two, with
-    the std of their equal mixture (each one's variance and half their difference)."""
+    """An anchor's predicted log(P/μ) and its std at inputs ``x``: its GP's, or the mean of
+    its members, with the std of their equal mixture (each one's variance and their
+    spread about the mean). The members: its GP; a cross-validated twin (``<name>_cv``,
+    ``_fit.ANCHOR_CV``); for Ph, the Pc anchor's prediction plus a GP of log(Ph / Pc)
+    (``ph_ratio``, ``_fit.ANCHOR_RATIO``; its variance the sum of the two)."""
     m, sd = gps[name].predict(x, std=True)
+    members = [(m[:, 0], sd[:, 0])]
     twin = gps.get(f"{name}_cv")
-    if twin is None:
-        return m[:, 0], sd[:, 0]
-    m2, sd2 = twin.predict(x, std=True)
-    mean = 0.5 * (m[:, 0] + m2[:, 0])
-    var = 0.5 * (sd[:, 0] ** 2 + sd2[:, 0] ** 2) + 0.25 * (m[:, 0] - m2[:, 0]) ** 2
+    if twin is not None:
+        m2, sd2 = twin.predict(x, std=True)
+        members.append((m2[:, 0], sd2[:, 0]))
+    ratio = gps.get(f"{name}_ratio")
+    if ratio is not None and name == "ph" and "pc" in gps:
+        pc, pc_sd = _anchor_prediction(gps, "pc", x)
+        r, r_sd = ratio.predict(x, std=True)
+        members.append((pc + r[:, 0], np.sqrt(pc_sd ** 2 + r_sd[:, 0] ** 2)))
+    if len(members) == 1:
+        return members[0]
+    means = np.array([mm for mm, _ in members])
+    mean = means.mean(axis=0)
+    var = (np.mean([ss ** 2 for _, ss in members], axis=0)
+           + np.mean((means - mean) ** 2, axis=0))
     return mean, np.sqrt(var)
 
 
@@ -102,7 +114,8 @@ class _Kind:
     fmean: np.ndarray
     fstd: np.ndarray
     #: the anchor GPs (log Pc/μ, log Ph/μ of FE) by name (and a cross-validated twin,
-    #: ``<name>_cv``, where ``_fit.ANCHOR_CV`` names the kind); empty in an older model file
+    #: ``<name>_cv``, where ``_fit.ANCHOR_CV`` names the kind, and ``ph_ratio`` where
+    #: ``_fit.ANCHOR_RATIO`` does); empty in an older model file
     anchors: dict[str, MultiOutputGP]
     #: log(P/μ) on the grid with a kernel of its own (``_fit.fit_pressure``); None in an
     #: older model file (the path GP's pressure then)
@@ -161,7 +174,7 @@ class CalibratedModel:
                           np.asarray(arrays[f"{p}box_high"]),
                           tuple(info.get("derived_inputs", ())))
                 anchors = {name: MultiOutputGP.from_arrays(arrays, f"{p}anchor_{name}/")
-                           for a in ANCHORS for name in (a, f"{a}_cv")
+                           for a in ANCHORS for name in (a, f"{a}_cv", f"{a}_ratio")
                            if f"{p}anchor_{name}/x" in arrays}
                 pressure = (MultiOutputGP.from_arrays(arrays, f"{p}pressure/")
                             if f"{p}pressure/x" in arrays else None)
