@@ -404,18 +404,24 @@ def test_the_bending_kind_takes_the_derived_input_its_manifest_names() -> None:
     assert xa[n:n + 2] == pytest.approx(xb[n:n + 2]) and not np.allclose(xa[:n], xb[:n])
 
 
+def _tilted_sample(n: int = 12):
+    """The shipped model and the first ``n`` valid cells of the `twisting` set."""
+    from multimorph.calibrated._fit import load_reference
+
+    ref = load_reference()["twisting"]
+    return load_model(), [ref.cell(int(r)) for r in np.flatnonzero(ref.ok)[:n]]
+
+
 def test_the_tilted_pc_anchor_is_the_mean_of_its_likelihood_and_cross_validated_gps() -> None:
     """Since stop 55 the twisting kind's Pc anchor is two GPs (``_fit.ANCHOR_CV``): the
     shipped model has the cross-validated one for Pc alone, in both variants, and the
     predicted log Pc of tilted cells is the mean of the two GPs' (each predicted by a copy
     of the model that has only it), its std their equal mixture's: at least the smaller
     of the two and at least half their difference."""
-    from multimorph.calibrated._fit import ANCHOR_CV, load_reference
+    from multimorph.calibrated._fit import ANCHOR_CV
 
     assert ANCHOR_CV == {"twisting": ("pc",)}
-    model = load_model()
-    ref = load_reference()["twisting"]
-    cells = [ref.cell(int(r)) for r in np.flatnonzero(ref.ok)[:12]]
+    model, cells = _tilted_sample()
     for fast, variant in ((False, "kinds"), (True, "fast_kinds")):
         k = getattr(model, variant)["twisting"]
         assert set(k.anchors) == {"pc", "pc_cv", "ph", "ph_ratio"}
@@ -442,12 +448,10 @@ def test_the_tilted_ph_anchor_is_the_mean_of_its_own_gp_and_pc_with_the_ratio() 
     on a copy of the model that has only it), its variance their equal mixture's (the
     ratio member's own the sum of Pc's and the ratio's); the ratio GP, fitted on FE labels
     with Ph ≥ Pc, puts Ph at or above Pc; bending and stretching have no such member."""
-    from multimorph.calibrated._fit import ANCHOR_RATIO, load_reference
+    from multimorph.calibrated._fit import ANCHOR_RATIO
 
     assert ANCHOR_RATIO == {"twisting": ("ph",)}
-    model = load_model()
-    ref = load_reference()["twisting"]
-    cells = [ref.cell(int(r)) for r in np.flatnonzero(ref.ok)[:12]]
+    model, cells = _tilted_sample()
     for fast, variant in ((False, "kinds"), (True, "fast_kinds")):
         kinds = getattr(model, variant)
         k = kinds["twisting"]
@@ -492,15 +496,12 @@ def test_the_tilted_strip_shear_is_the_mean_of_three_gps() -> None:
         LOG_SIGNAL_KINDS,
         LOG_SIGNAL_WEIGHT,
         fit_log_signal,
-        load_reference,
     )
 
     assert LOG_SIGNAL_KINDS == ("twisting",) and LOG_SIGNAL_WEIGHT == pytest.approx(1 / 3)
     with pytest.raises(ValueError, match="changes sign"):
         fit_log_signal(SimpleNamespace(kind="bending"), None, None, None)
-    model = load_model()
-    ref = load_reference()["twisting"]
-    cells = [ref.cell(int(r)) for r in np.flatnonzero(ref.ok)[:12]]
+    model, cells = _tilted_sample()
     for fast, variant in ((False, "kinds"), (True, "fast_kinds")):
         kinds = getattr(model, variant)
         k = kinds["twisting"]
