@@ -19,7 +19,9 @@ model's end) at 1.03 Pc, on the plateau after their snap. For such a module the 
 compared at equal chamber volumes (V/V0 = 2, 5, 10, 15, 20, 25), the reading that stays
 well-posed along a plateau, where a pressure a per cent off moves the motion by a half;
 the extension (stretch − 1) against FE's, and that difference over FE's range along its
-path (the curve criterion's measure).
+path (the curve criterion's measure), beside the module's cell alone in FE (mirror ends,
+cached as ``<module>/cell``): where the model follows that cell and the module departs
+from both, the difference is the module rule's (cell × count), not the cell model's.
 """
 
 from __future__ import annotations
@@ -48,13 +50,13 @@ MODULES = (
 )
 
 
-def run_fe(cell: CellGeometry, n: int) -> dict[str, list[float]]:
+def run_fe(cell: CellGeometry, n: int, end: str = "free") -> dict[str, list[float]]:
     from multimorph.fe import FESettings, MeshDensity, simulate_cell
 
     s = FESettings(mesh=MeshDensity(wall_elements=2, length_fraction=0.05), p_max=0.6 * MU,
                    max_volume_ratio=25.0, max_steps=200)
     t = time.perf_counter()
-    res = simulate_cell(cell, s, n_cells=n)
+    res = simulate_cell(cell, s, n_cells=n, end=end)
     p = res.response.path
     return {"pressure": p.pressure.tolist(), "bend_angle": p.extra["bend_angle"].tolist(),
             "axial_stretch": p.axial_stretch.tolist(), "volume": p.volume.tolist(),
@@ -75,6 +77,12 @@ def main() -> None:
         if name not in cache:
             print(f"FE of {name} ...", flush=True)
             cache[name] = run_fe(cell, n)
+            out.write_text(json.dumps(cache, indent=1) + "\n")
+        if f"{name}/cell" not in cache:
+            # the module's cell alone, as inside a module (mirror ends): says whether a
+            # difference is the cell model's or the module rule's (cell × count)
+            print(f"FE of {name}'s cell ...", flush=True)
+            cache[f"{name}/cell"] = run_fe(cell, 1, end="mirror")
             out.write_text(json.dumps(cache, indent=1) + "\n")
     if args.fe_only:
         return
@@ -114,7 +122,7 @@ def main() -> None:
               f"{c.top_fe / pc:.2f} Pc, the model's at {c.top_model / pc:.2f} Pc, FE's Pc "
               f"{pc / 1e3:.2f} kPa); the motion at equal chamber volumes:")
         print(f"{'V/V0':>6} {'P FE':>7} {'P model':>8} {'motion FE':>10} {'model':>8} {'Δ':>7} "
-              f"{'Δ / FE range':>13}")
+              f"{'Δ / FE range':>13} {'FE cell alone':>14}")
         vf = path["volume"] / path["volume"][0]
         vm = np.asarray(r.path.volume, float) / float(r.path.volume[0])
         yf = module_motion(path, kind, n)
@@ -126,11 +134,16 @@ def main() -> None:
         if not rows:
             print("  (the two paths share no chamber volume past V/V0 = 2)")
         span = float(np.max(yf) - np.min(yf))
+        alone = {k: np.asarray(v) for k, v in cache[f"{name}/cell"].items()
+                 if isinstance(v, list)}
+        vc = alone["volume"] / alone["volume"][0]
+        yc = module_motion(alone | {"bend_angle": alone["bend_angle"] * n}, kind, n)
         for v in rows:
             a, b = float(np.interp(v, vf, yf)), float(np.interp(v, vm, ym))
+            c = f"{np.interp(v, vc, yc):14.4f}" if v <= vc.max() * (1 + 1e-6) else f"{'—':>14}"
             print(f"{v:6.0f} {np.interp(v, vf, path['pressure']) / 1e3:7.2f} "
                   f"{np.interp(v, vm, r.path.pressure) / 1e3:8.2f} {a:10.4f} {b:8.4f} "
-                  f"{100 * (b - a) / a:+6.1f}% {100 * (b - a) / span:+12.1f}%")
+                  f"{100 * (b - a) / a:+6.1f}% {100 * (b - a) / span:+12.1f}% {c}")
 
 
 def signed(model: float | None, fe: float | None) -> float:
