@@ -13,6 +13,10 @@ minutes); ``--refit`` reruns them. Prints Pc, Ph, the motion at 1.5 Pc and the g
 (docs/validation.md §3: the largest distance of FE's loading curve up to 1.5 Pc from the
 model's, in P / Pc and the motion over FE's range) side by side.
 
+Each module's cell alone in FE (mirror ends, the cell as inside a module; cached as
+``<module>/cell``) is printed beside the module's Pc too: module / cell is the module
+rule's error (cell × count), the calibrated cell against it the cell model's.
+
 Where a module's trace ends before 1.5 Pc, it has no motion there to compare: the
 stretching module's cells balloon past 25 times their volume (the data set's and the
 model's end) at 1.03 Pc, on the plateau after their snap. For such a module the motion is
@@ -94,7 +98,7 @@ def main() -> None:
     print(f"{'module':<14} {'model':<11} {'Pc FE':>8} {'Pc model':>9} {'ΔPc':>7} "
           f"{'Ph FE':>8} {'Ph model':>9} {'ΔPh':>7} "
           f"{'motion@1.5Pc FE':>16} {'model':>8} {'Δ':>7} {'graph err':>10}")
-    by_volume = []
+    by_volume, cells = [], []
     for name, kind, cell, n in MODULES:
         fe = cache[name]
         path = {k: np.asarray(v) for k, v in fe.items() if isinstance(v, list)}
@@ -116,6 +120,22 @@ def main() -> None:
                   f"{100 * d15:+6.1f}% {100 * c.graph_error:9.1f}%")
             if not (np.isfinite(c.y15_fe) and np.isfinite(c.y15_model)):
                 by_volume.append((name, kind, label, path, r, n, c))
+        cells.append((name, kind, cell, fe_resp))
+    # the module's cell alone in FE: how far the module rule (cell × count) is from the
+    # module, apart from the cell model's own error
+    print(f"\n{'module':<14} {'Pc FE module':>13} {'Pc FE cell':>11} {'module/cell':>12} "
+          f"{'Pc calibrated cell':>19} {'vs FE cell':>11}")
+    for name, kind, cell, fe_resp in cells:
+        alone = {k: np.asarray(v) for k, v in cache[f"{name}/cell"].items()
+                 if isinstance(v, list)}
+        alone["curvature"] = np.zeros(len(alone["pressure"]))
+        alone["shear"] = np.zeros(len(alone["pressure"]))
+        pc_cell = fe_response(alone, cell, kind).characteristic.critical
+        pc_mod = fe_resp.characteristic.critical
+        pc_cal = model(cell, float(max(alone["pressure"])) * 1.2).characteristic.critical
+        print(f"{name:<14} {pc_mod / 1e3:13.2f} {pc_cell / 1e3:11.2f} "
+              f"{100 * signed(pc_mod, pc_cell):+11.1f}% {pc_cal / 1e3:19.2f} "
+              f"{100 * signed(pc_cal, pc_cell):+10.1f}%")
     for name, kind, label, path, r, n, c in by_volume:
         pc = c.pc_fe or float("nan")
         print(f"\n{name} ({label}): no motion at 1.5 Pc to compare (FE's path ends at "
