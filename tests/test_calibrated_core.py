@@ -247,15 +247,15 @@ def test_crossing_anchors_meet_at_their_precision_weighted_mean() -> None:
 
 
 def test_a_path_weight_takes_the_log_mean_of_the_anchor_and_the_paths_reading() -> None:
-    """With a path weight (stretching cells: 0.5 on both; bending cells 0.75 on both since
-    stop 45, 0.5 on Pc and 0.25 on Ph before; tilted cells 0.25 on Ph alone since stop
-    59) Pc and Ph are the weighted means in log P of the anchor and the path's own reading
-    where both exist; the anchor alone where the path reads none; the record says the
-    weights. Weight 0 is the anchor (the default)."""
+    """With a path weight (stretching cells: 0.5 on both; bending cells 0.75 on both since stop
+    45, 0.5 on Pc and 0.25 on Ph before; tilted cells 0.25 on both since stop 59) Pc and
+    Ph are the weighted means in log P of the anchor and the path's own reading where
+    both exist; the anchor alone where the path reads none; the record says the weights.
+    Weight 0 is the anchor (the default)."""
     from multimorph.calibrated._anchor import PATH_WEIGHT, anchored_characteristic
 
     assert PATH_WEIGHT == {"stretching": (0.5, 0.5), "bending": (0.75, 0.75),
-                           "twisting": (0.0, 0.25)}
+                           "twisting": (0.25, 0.25)}
     resp = _ballooning_response(1.0, 1.25)
     own = resp.characteristic
     ch, info = anchored_characteristic(resp, 1.1, 1.4, path_weight=0.5)

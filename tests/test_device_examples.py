@@ -152,7 +152,7 @@ def test_gripper_twists_after_its_fingers_have_bent():
     """The fingers end their bend near 30 kPa; from there to 40 kPa the twister turns faster
     than it did before, while the hardened fingers add little (the paper's bend, then
     twist), on the calibrated model the example was designed on. (The fast variant keeps
-    the order, fingers 28.8 then twister 30.7 kPa since stop 59; the demo's test asserts
+    the order, fingers 28.8 then twister 32.4 kPa since stop 59; the demo's test asserts
     it.)
 
     Since stop 37 the example is the FE-verified design; since stop 54 the one designed and

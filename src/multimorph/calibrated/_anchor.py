@@ -89,17 +89,20 @@ def _signal(resp: Response) -> tuple[np.ndarray, np.ndarray]:
 #: at 0.75 (3.5 %), 2.5 / 8.1 % at 1; Ph 4.9 / 14.3 %, 3.7 / 11.3 % at 0.25 (mean 5.4 %),
 #: 3.6 / 9.8 % at 0.5, 2.8 / 8.6 % at 0.75 (4.2 %), 2.7 / 9.0 % at 1.
 #:
-#: Tilted cells: Pc keeps the anchor alone, the cross-validation gains nothing there (5
-#: folds, 236 cells: Pc 6.8 / 20.5 → 6.7 / 21.0 % at 0.5, Ph 8.1 / 19.2 → 6.2 / 19.3 %).
-#: Ph since stop 59 at 0.25, with its anchor's ratio member (``_fit.ANCHOR_RATIO``): 5-fold
+#: Tilted cells: until stop 59 the anchors alone (stop 45's cross-validation, 5 folds, 236
+#: cells: Pc 6.8 / 20.5 → 6.7 / 21.0 % at 0.5, Ph 8.1 / 19.2 → 6.2 / 19.3 %). Since stop
+#: 59, 0.25 on both, with the Ph anchor's ratio member (``_fit.ANCHOR_RATIO``): 5-fold
 #: cross-validation on the 268 training designs, the twisting kind (fast variant) refitted
-#: on each fold's rest and the whole chain run on the fold (158 designs with an FE Ph;
-#: median / p90 of |ΔPh|/Ph): 6.3 / 20.4 % with the anchor alone, 5.6 / 18.7 % at 0.25,
-#: 6.2 / 19.1 % at 0.5, 6.9 / 19.4 % at 0.75, 7.2 / 20.0 % at 1 (docs/validation.md §4
-#: stop 59).
+#: on each fold's rest and the whole chain run on the fold (median / p90). Ph first, Pc at
+#: 0 (158 designs with an FE Ph): 6.3 / 20.4 % with the anchor alone, 5.6 / 18.7 % at
+#: 0.25, 6.2 / 19.1 % at 0.5, 6.9 / 19.4 % at 0.75, 7.2 / 20.0 % at 1. Then Pc, Ph at 0.25
+#: (237 designs with an FE Pc): 6.0 / 19.8 %, 5.4 / 18.7 % at 0.25, 5.1 / 19.4 % at 0.5,
+#: 4.7 / 19.7 % at 0.75, 5.3 / 20.4 % at 1: 0.25 is the one better on both figures (and
+#: the smoothest across designs: a jump of the path's reading moves the value by a quarter
+#: of it); docs/validation.md §4 stop 59.
 PATH_WEIGHT: dict[str, tuple[float, float]] = {"stretching": (0.5, 0.5),
                                                "bending": (0.75, 0.75),
-                                               "twisting": (0.0, 0.25)}
+                                               "twisting": (0.25, 0.25)}
 
 
 def _blend(anchor: float, own: float | None, w: float, cap: float = math.inf) -> float:

@@ -1,0 +1,121 @@
+"""The tilted cells' path weights by cross-validation: how far a tilted cell's reported Pc and
+Ph should move from their anchors towards the path's own readings (``_anchor.PATH_WEIGHT``).
+
+Run: python benchmarks/tilted_path_weight_cv.py [--folds 5] [--seed 59]
+     [--weights 0 0.25 0.5 0.75 1] [--fixed-pc 0.25] [--fixed-ph 0.25]
+
+The twisting kind's training designs are split into folds (a fixed seed). For each fold
+the kind's fast variant (its path, pressure, signal, log-signal and anchor GPs) is refitted
+in memory on the other folds' designs (``_fit._fit_one``, resumable through
+``$MULTIMORPH_FIT_RESUME``, by default a folder under the system's temp dir), and every
+design of the fold is answered through the whole chain (``CalibratedModel.responses``,
+its straight cell from the shipped bending kind) with each weight in turn: Ph's weight
+swept with Pc's at ``--fixed-pc``, then Pc's swept with Ph's at ``--fixed-ph``. Prints
+the median / p90 of |ΔPc|/Pc and |ΔPh|/Ph against the designs' FE per weight. Stop 59
+chose 0.25 on both with it (docs/validation.md §4 stop 59). Under a minute once the fold
+fits are kept; the first run fits them (about 15 s a fold on this machine).
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import json
+import os
+import tempfile
+import time
+import warnings
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--folds", type=int, default=5)
+    ap.add_argument("--seed", type=int, default=59)
+    ap.add_argument("--weights", type=float, nargs="+", default=[0.0, 0.25, 0.5, 0.75, 1.0])
+    ap.add_argument("--fixed-pc", type=float, default=0.25)
+    ap.add_argument("--fixed-ph", type=float, default=0.25)
+    args = ap.parse_args()
+    os.environ.setdefault("MULTIMORPH_FIT_RESUME",
+                          str(Path(tempfile.gettempdir()) / "multimorph-tilted-cv"))
+
+    from multimorph.calibrated import CalibrationWarning
+    from multimorph.calibrated import _fit as fit
+    from multimorph.calibrated._anchor import PATH_WEIGHT
+    from multimorph.calibrated._box import Box
+    from multimorph.calibrated._dataset import load_reference, reference_spec
+    from multimorph.calibrated._gp import MultiOutputGP
+    from multimorph.calibrated._model import CalibratedModel, straight_of
+    from multimorph.calibrated._validate import fe_response
+    from multimorph.calibrated.validate import at_end_of, requested_pressure
+
+    warnings.simplefilter("ignore", CalibrationWarning)
+    with np.load(fit.MODEL_FILE, allow_pickle=False) as z:
+        arrays = {k: z[k] for k in z.files}
+    manifest = json.loads(fit.MODEL_MANIFEST.read_text())
+    # the fast variant's inputs, as `fit model` builds them
+    emu = (MultiOutputGP.from_arrays(arrays, "emulator/bending/"),
+           Box.from_spec("bending", reference_spec("bending")))
+    data = fit.fe_training_data("twisting", load_reference())
+    data = replace(data, features=fit.emulated_features(*emu, data.cells, data.features))
+    data = replace(data, straight=straight_of(arrays, manifest, data, True))
+    usable = ~data.holdout & np.all(np.isfinite(fit.data_features(data)), axis=1)
+    rows = np.flatnonzero(usable)
+    fold = np.random.default_rng(args.seed).permutation(len(rows)) % args.folds
+    fe = [fe_response(data.paths[r], data.cells[r], "twisting").characteristic
+          for r in range(len(data.cells))]
+
+    sweeps = [("Ph", (args.fixed_pc, w)) for w in args.weights]
+    sweeps += [("Pc", (w, args.fixed_ph)) for w in args.weights]
+    errors: dict[tuple[float, float], dict[str, list[float]]] = {
+        pw: {"Pc": [], "Ph": []} for _, pw in sweeps}
+    saved = PATH_WEIGHT.get("twisting")
+    t0 = time.perf_counter()
+    try:
+        for f in range(args.folds):
+            test = rows[fold == f]
+            held = data.holdout.copy()
+            held[test] = True
+            arr, man = dict(arrays), copy.deepcopy(manifest)
+            fit._fit_one("twisting", replace(data, holdout=held), "fast/", arr,
+                         man["fast_kinds"])
+            model = CalibratedModel(arr, man)
+            for pw in errors:
+                PATH_WEIGHT["twisting"] = pw
+                for r in test:
+                    name, design = str(data.set_name[r]), int(data.design[r])
+                    m, _ = at_end_of(model, "twisting", name)
+                    resp = m.responses([data.cells[r]], requested_pressure(
+                        name, design, data.paths[r]), fast=True)[0]
+                    if isinstance(resp, Exception):
+                        continue
+                    ch = resp.characteristic
+                    for key, a, b in (("Pc", ch.critical, fe[r].critical),
+                                      ("Ph", ch.hardening, fe[r].hardening)):
+                        if a is not None and b is not None and b > 0:
+                            errors[pw][key].append(abs(a / b - 1.0))
+            print(f"fold {f + 1}/{args.folds} done, {time.perf_counter() - t0:.0f} s",
+                  flush=True)
+    finally:
+        if saved is None:
+            PATH_WEIGHT.pop("twisting", None)
+        else:
+            PATH_WEIGHT["twisting"] = saved
+
+    def cell(v: list[float]) -> str:
+        e = np.asarray(v)
+        return f"{100 * np.median(e):.1f} / {100 * np.percentile(e, 90):.1f} % ({len(e)})"
+
+    print(f"\n{args.folds}-fold cross-validation on {len(rows)} tilted training designs "
+          f"(calibrated-fast; |ΔP|/P median / p90, designs)")
+    print(f"{'swept':<6} {'weights (Pc, Ph)':<18} {'Pc':>24} {'Ph':>24}")
+    for key, pw in sweeps:
+        print(f"{key:<6} {pw!s:<18} {cell(errors[pw]['Pc']):>24} "
+              f"{cell(errors[pw]['Ph']):>24}")
+
+
+if __name__ == "__main__":
+    main()
