@@ -80,12 +80,14 @@ class CalibrationWarning(UserWarning):
 
 
 def _anchor_prediction(gps: dict[str, MultiOutputGP], name: str, x: np.ndarray,
+                       pc: tuple[np.ndarray, np.ndarray] | None = None,
                        ) -> tuple[np.ndarray, np.ndarray]:
     """An anchor's predicted log(P/μ) and its std at inputs ``x``: its GP's, or the mean of
     its members, with the std of their equal mixture (each one's variance and their
     spread about the mean). The members: its GP; a cross-validated twin (``<name>_cv``,
     ``_fit.ANCHOR_CV``); for Ph, the Pc anchor's prediction plus a GP of log(Ph / Pc)
-    (``ph_ratio``, ``_fit.ANCHOR_RATIO``; its variance the sum of the two)."""
+    (``ph_ratio``, ``_fit.ANCHOR_RATIO``; its variance the sum of the two), the Pc
+    prediction ``pc`` where the caller has it already (else predicted here)."""
     m, sd = gps[name].predict(x, std=True)
     members = [(m[:, 0], sd[:, 0])]
     twin = gps.get(f"{name}_cv")
@@ -94,9 +96,9 @@ def _anchor_prediction(gps: dict[str, MultiOutputGP], name: str, x: np.ndarray,
         members.append((m2[:, 0], sd2[:, 0]))
     ratio = gps.get(f"{name}_ratio")
     if ratio is not None and name == "ph" and "pc" in gps:
-        pc, pc_sd = _anchor_prediction(gps, "pc", x)
+        pc_m, pc_sd = pc if pc is not None else _anchor_prediction(gps, "pc", x)
         r, r_sd = ratio.predict(x, std=True)
-        members.append((pc + r[:, 0], np.sqrt(pc_sd ** 2 + r_sd[:, 0] ** 2)))
+        members.append((pc_m + r[:, 0], np.sqrt(pc_sd ** 2 + r_sd[:, 0] ** 2)))
     if len(members) == 1:
         return members[0]
     means = np.array([mm for mm, _ in members])
@@ -354,9 +356,11 @@ class CalibratedModel:
         if k.anchors:
             anchors = np.full((len(x), len(ANCHORS)), np.nan)
             anchor_std = np.full_like(anchors, np.nan)
-            for j, name in enumerate(ANCHORS):
+            done: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+            for j, name in enumerate(ANCHORS):       # Pc first: Ph's ratio member reads it
                 if name in k.anchors:
-                    anchors[:, j], anchor_std[:, j] = _anchor_prediction(k.anchors, name, x)
+                    done[name] = _anchor_prediction(k.anchors, name, x, done.get("pc"))
+                    anchors[:, j], anchor_std[:, j] = done[name]
         return GridPrediction(kind, values, std_log_p, t_end, p_end, inside, outside,
                               anchors, anchor_std, std_signal)
 
