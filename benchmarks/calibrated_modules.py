@@ -100,10 +100,7 @@ def main() -> None:
           f"{'motion@1.5Pc FE':>16} {'model':>8} {'Δ':>7} {'graph err':>10}")
     by_volume, cells = [], []
     for name, kind, cell, n in MODULES:
-        fe = cache[name]
-        path = {k: np.asarray(v) for k, v in fe.items() if isinstance(v, list)}
-        path["curvature"] = np.zeros(len(path["pressure"]))
-        path["shear"] = np.zeros(len(path["pressure"]))
+        path = cached_path(cache[name])
         fe_resp = fe_response(path, cell, kind, n_cells=n)
         for label, m in (("calibrated", model), ("ritz", ritz)):
             r = m(cell, float(max(path["pressure"])) * 1.2)
@@ -126,10 +123,7 @@ def main() -> None:
     print(f"\n{'module':<14} {'Pc FE module':>13} {'Pc FE cell':>11} {'module/cell':>12} "
           f"{'Pc calibrated cell':>19} {'vs FE cell':>11}")
     for name, kind, cell, fe_resp in cells:
-        alone = {k: np.asarray(v) for k, v in cache[f"{name}/cell"].items()
-                 if isinstance(v, list)}
-        alone["curvature"] = np.zeros(len(alone["pressure"]))
-        alone["shear"] = np.zeros(len(alone["pressure"]))
+        alone = cached_path(cache[f"{name}/cell"])
         pc_cell = fe_response(alone, cell, kind).characteristic.critical
         pc_mod = fe_resp.characteristic.critical
         pc_cal = model(cell, float(max(alone["pressure"])) * 1.2).characteristic.critical
@@ -154,8 +148,7 @@ def main() -> None:
         if not rows:
             print("  (the two paths share no chamber volume past V/V0 = 2)")
         span = float(np.max(yf) - np.min(yf))
-        alone = {k: np.asarray(v) for k, v in cache[f"{name}/cell"].items()
-                 if isinstance(v, list)}
+        alone = cached_path(cache[f"{name}/cell"])
         vc = alone["volume"] / alone["volume"][0]
         yc = module_motion(alone | {"bend_angle": alone["bend_angle"] * n}, kind, n)
         for v in rows:
@@ -164,6 +157,15 @@ def main() -> None:
             print(f"{v:6.0f} {np.interp(v, vf, path['pressure']) / 1e3:7.2f} "
                   f"{np.interp(v, vm, r.path.pressure) / 1e3:8.2f} {a:10.4f} {b:8.4f} "
                   f"{100 * (b - a) / a:+6.1f}% {100 * (b - a) / span:+12.1f}% {c}")
+
+
+def cached_path(entry: dict[str, object]) -> dict[str, np.ndarray]:
+    """A cached FE run's path arrays, with the zero curvature and shear ``fe_response``
+    reads (the runs store the end rotation, ``bend_angle``, instead)."""
+    path = {k: np.asarray(v) for k, v in entry.items() if isinstance(v, list)}
+    path["curvature"] = np.zeros(len(path["pressure"]))
+    path["shear"] = np.zeros(len(path["pressure"]))
+    return path
 
 
 def signed(model: float | None, fe: float | None) -> float:
