@@ -1,6 +1,7 @@
 """FE against a finer FE mesh on held-out designs, with the calibrated model's curve metrics.
 
     python benchmarks/fe_mesh_curves.py [--set bending_mirror] [--n 8] [--json FILE]
+        [--designs 44,112,...]
 
 What a curve criterion can ask of any model: the data set's FE (2 elements through every
 wall, in-plane edges d/20) is itself within 1-3 % of a finer mesh on Pc. Where a cell snaps
@@ -79,6 +80,9 @@ def main(argv: list[str] | None = None) -> int:
                     help="only designs whose data-set FE took at most this (s)")
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "runs" / "fe_mesh_curves"))
     ap.add_argument("--json", default=None, help="write the rows to this file")
+    ap.add_argument("--designs", default=None,
+                    help="comma-separated design numbers to run (in place of the first --n "
+                         "held-out ones), e.g. the designs the model misses most")
     args = ap.parse_args(argv)
 
     from multimorph.calibrated._dataset import REFERENCE_SETS, load_reference
@@ -86,9 +90,16 @@ def main(argv: list[str] | None = None) -> int:
 
     kind = REFERENCE_SETS[args.set]
     ref = load_reference()[args.set]
-    rows = [r for r in np.flatnonzero(ref.ok & ref.holdout)
-            if float(ref.meta[r].get("wall_time", math.inf)) <= args.max_time
-            and math.isfinite(ref.scalars["critical_pressure"][r])][: args.n]
+    if args.designs:
+        wanted = [int(d) for d in args.designs.split(",")]
+        missing = sorted(set(wanted) - {int(d) for d in ref.design[ref.ok]})
+        if missing:
+            ap.error(f"--designs: {missing} are not designs of {args.set} with an FE path")
+        rows = [int(np.flatnonzero((ref.design == d) & ref.ok)[0]) for d in wanted]
+    else:
+        rows = [r for r in np.flatnonzero(ref.ok & ref.holdout)
+                if float(ref.meta[r].get("wall_time", math.inf)) <= args.max_time
+                and math.isfinite(ref.scalars["critical_pressure"][r])][: args.n]
     out = Path(args.out) / args.set
     print(f"{args.set}: {len(rows)} held-out designs, fine mesh {FINE}", flush=True)
     print(f"{'design':>6} {'Pc fine':>9} {'Pc set':>9} {'dPc':>7} {'dPh':>7} "
