@@ -50,6 +50,7 @@ from multimorph.geometry import CellGeometry
 from multimorph.response import EquilibriumPath
 from multimorph.rom._cell_energy import COORDINATES, GEOMETRY_KEYS, RomOptions, cell_kernel
 from multimorph.rom._continuation import TracerSettings
+from multimorph.rom._exported import cache_folder, exported
 from multimorph.rom._kernels import solve_small
 from multimorph.rom._model import DEFAULT_SETTINGS, cell_theta, free_settings, options_for
 
@@ -143,7 +144,10 @@ def _kernel(wall_law: str, bottom_law: str, options: RomOptions,
         dq_fixed = jnp.where(regular, du[:n] - tq[:, None] * du[n][None, :] / safe, 0.0)
         return {"dq": du[:n], "dp": du[n], "dq_fixed": dq_fixed, "regular": regular}
 
-    return jax.jit(jax.vmap(point, in_axes=(0, 0, 0, None, None)))
+    # traced once and kept across processes (its ~10–30 s compile is mostly tracing)
+    return exported(jax.jit(jax.vmap(point, in_axes=(0, 0, 0, None, None))),
+                    f"sensitivity {wall_law} {bottom_law} {options!r} {settings!r}",
+                    cache_folder)
 
 
 def _secants(u: np.ndarray) -> np.ndarray:
