@@ -5,6 +5,7 @@ file) traces again."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import jax
@@ -137,6 +138,23 @@ def test_a_kernel_quick_to_trace_is_not_kept(tmp_path: Path, monkeypatch) -> Non
     _exported.exported(_kernel(later), "k", lambda: str(tmp_path))(*_args())
     assert len(later) == 1 and _files(tmp_path) == []
     assert len(list((tmp_path / _exported.EXPORT_FOLDER).glob("*.cheap"))) == 1
+
+
+def test_beyond_max_kept_the_least_recently_used_kernels_go(tmp_path: Path,
+                                                             monkeypatch) -> None:
+    monkeypatch.setattr(_exported, "MAX_KEPT", 2)
+    fns = {n: _exported.exported(_kernel([]), "k", lambda: str(tmp_path)) for n in (3, 4)}
+    for n, fn in fns.items():
+        fn(*_args(n=n))
+    first, second = (_exported.kernel_file(tmp_path, "k", _exported._signature(_args(n=n)))
+                     for n in (3, 4))
+    os.utime(first, (1, 1))
+    os.utime(second, (2, 2))
+    # read back in a later process: the n = 3 kernel is now the most recently used
+    _exported.exported(_kernel([]), "k", lambda: str(tmp_path))(*_args(n=3))
+    _exported.exported(_kernel([]), "k", lambda: str(tmp_path))(*_args(n=5))
+    assert set(_files(tmp_path)) == {first, _exported.kernel_file(
+        tmp_path, "k", _exported._signature(_args(n=5)))}
 
 
 def test_the_source_digest_covers_the_package_code() -> None:

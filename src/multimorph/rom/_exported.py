@@ -13,11 +13,11 @@ argument types (tree, shapes, dtypes, weak types), the same JAX and jaxlib versi
 backend and precision, and the same multimorph sources (a digest of every ``.py`` file of
 the package): any change of the code traces again. A file that cannot be read or called
 is traced again and rewritten; files are written whole or not at all (several processes
-may export the same kernel at once). Kernels that trace in under
-:data:`MIN_TRACE_SECONDS` are not kept: an empty marker sends later processes straight to
-plain jit. Without a cache folder, or without the
-``flatbuffers`` package that JAX's serialisation needs, or with
-``MULTIMORPH_JAX_EXPORT=0``, kernels are traced in every process, as before.
+may export the same kernel at once); beyond :data:`MAX_KEPT` files the least recently used
+are removed. Kernels that trace in under :data:`MIN_TRACE_SECONDS` are not kept: an empty
+marker sends later processes straight to plain jit. Without a cache folder, without the
+``flatbuffers`` package that JAX's serialisation needs, or with ``MULTIMORPH_JAX_EXPORT=0``,
+kernels are traced in every process, as before.
 """
 
 from __future__ import annotations
@@ -31,8 +31,8 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
-__all__ = ["EXPORT_FOLDER", "MIN_TRACE_SECONDS", "cache_folder", "export_enabled", "exported",
-           "kernel_file", "source_digest"]
+__all__ = ["EXPORT_FOLDER", "MAX_KEPT", "MIN_TRACE_SECONDS", "cache_folder", "export_enabled",
+           "exported", "kernel_file", "source_digest"]
 
 logger = logging.getLogger("multimorph.compile")
 
@@ -42,6 +42,9 @@ EXPORT_FOLDER = "multimorph-exported"
 #: kernel called on many batch sizes would fill the folder for nothing (JAX's own cache
 #: keeps only compilations of a second or more, ``multimorph._jaxconfig``).
 MIN_TRACE_SECONDS = 1.0
+#: The most kernels kept (~0.5 MB each): every change of the sources exports its kernels
+#: anew, so the least recently used beyond this are removed when one is written.
+MAX_KEPT = 200
 
 
 @lru_cache(maxsize=1)
@@ -109,6 +112,24 @@ def _write(path: Path, data: bytes) -> None:
     tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")
     tmp.write_bytes(data)
     tmp.replace(path)
+    _prune(path.parent)
+
+
+def _prune(folder: Path, keep: int | None = None) -> None:
+    """Remove the least recently used kernels of ``folder`` beyond ``keep`` (default
+    :data:`MAX_KEPT`); a file another process removes first is skipped."""
+    keep = MAX_KEPT if keep is None else keep
+    files = []
+    for f in [*folder.glob("*.bin"), *folder.glob("*.cheap")]:
+        try:
+            files.append((f.stat().st_mtime, f))
+        except OSError:
+            continue
+    for _, f in sorted(files, reverse=True)[keep:]:
+        try:
+            f.unlink()
+        except OSError:
+            pass
 
 
 def exported(fn: Callable[..., Any], key: str, folder: Callable[[], str | None],
@@ -160,7 +181,9 @@ def _read(path: Path) -> Callable[..., Any] | None:
     from jax import export
 
     try:
-        return export.deserialize(bytearray(path.read_bytes())).call
+        run = export.deserialize(bytearray(path.read_bytes())).call
+        os.utime(path)          # recently used: the last to be pruned
+        return run
     except Exception as exc:
         logger.debug("exported kernel %s unreadable (%s); tracing it again", path, exc)
         return None
