@@ -81,3 +81,46 @@ def test_inline_material_uses_default_cv():
         assert s["std"] == pytest.approx(0.0, abs=1e-6) and s["mean"] == pytest.approx(sr.end)
     assert rep.p_order == 1.0
     np.testing.assert_allclose(rep.samples["sealer"]["end_pressure"], r.best.stages[0].end)
+
+
+def test_samples_outside_the_model_support_are_counted_apart():
+    """A design whose tolerance scatter leaves the model's support: the samples the model
+    cannot answer are counted (``outside_support``), never passed off as stages that do not
+    activate, and the probabilities are also given over the answered samples."""
+    from multimorph.errors import OutsideSupportError
+
+    t = target_from_spec(tomllib.loads((EXAMPLES / "target_jar_lifter.toml").read_text()))
+    r = design(t, model=STANDIN, settings=DesignSettings(budget=600, population=12, seed=0))
+    nominal = [c.top_wall for c in r.best.candidate.cells]
+    S = len(t.stages)
+    refused: list[int] = []
+
+    def bounded(cells, p_max):
+        # the first stage's support ends at its nominal top wall (the design at its edge)
+        out = STANDIN(cells, p_max)
+        for k, c in enumerate(cells):
+            if k % S == 0 and c.top_wall > nominal[0]:
+                out[k] = OutsideSupportError("outside the calibrated box; no prediction")
+                refused.append(k // S)
+        return out
+
+    free = robustness(t, r.best, n_samples=40, seed=2, model=STANDIN)
+    rep = robustness(t, r.best, n_samples=40, seed=2, model=bounded)
+    n_out = len(set(refused))
+    assert 5 < n_out < 35 and rep.outside_support == n_out
+    assert free.outside_support == 0 and free.p_order_supported == free.p_order
+    first = rep.stages[t.stages[0].name]
+    assert first["start_pressure"]["outside_support"] == n_out
+    assert first["start_pressure"]["missing"] >= n_out
+    assert rep.stages[t.stages[1].name]["start_pressure"]["outside_support"] == 0
+    # unanswered samples fail in p_order; over the answered ones the stand-in's own answer
+    answered = 40 - n_out
+    assert rep.p_order == pytest.approx(rep.p_order_supported * answered / 40)
+    assert rep.p_meets == pytest.approx(rep.p_meets_supported * answered / 40)
+    assert rep.p_order_supported >= rep.p_order
+    d = rep.to_dict()
+    assert d["outside_support"] == n_out and d["p_order_supported"] == rep.p_order_supported
+    # the stage statistics are over the answered samples: no zero motion stands in
+    for key in ("start_pressure", "end_pressure", "magnitude"):
+        assert first[key]["missing"] >= first[key]["outside_support"] == n_out
+    assert np.isnan(rep.samples[t.stages[0].name]["magnitude"]).sum() >= n_out

@@ -7,6 +7,7 @@ __all__ = [
     "FitError",
     "LockupError",
     "MultimorphError",
+    "OutsideSupportError",
     "SpecError",
     "UnknownMaterialError",
 ]
@@ -40,6 +41,11 @@ class UnknownMaterialError(SpecError, KeyError):
 
     def __str__(self) -> str:  # KeyError would add quotes
         return str(self.args[0])
+
+
+class OutsideSupportError(MultimorphError):
+    """A cell outside the calibrated model's support where no fallback was asked for: the
+    model gives no prediction (not a cell that fails to activate)."""
 
 
 class FitError(MultimorphError, RuntimeError):

@@ -121,7 +121,8 @@ def batch_model(name: str | None = None, *, fallback: bool = True,
     """``fn(cells, p_max) -> list[Response | Exception]`` of the model ``name``.
 
     ``fallback=False`` (calibrated model): a cell outside the calibrated support gets an
-    exception instead of the Ritz model's answer, so a search (the designer) stays where
+    exception (:class:`~multimorph.errors.OutsideSupportError`) instead of the Ritz model's
+    answer, so a search (the designer) stays where
     the calibrated model holds rather than mixing two models in one objective.
     """
     key = model_name(name)

@@ -50,7 +50,7 @@ from multimorph.calibrated._law import (
     wall_activates,
 )
 from multimorph.calibrated._representation import QUANTITIES, T_GRID, kind_of, paths_from_grid
-from multimorph.errors import MultimorphError, SpecError
+from multimorph.errors import MultimorphError, OutsideSupportError, SpecError
 from multimorph.geometry import CellGeometry, TiltedCell
 from multimorph.response import EquilibriumPath, Response, build_response
 
@@ -499,7 +499,7 @@ class CalibratedModel:
                   if fallback else "no prediction"))
         warnings.warn(msg, CalibrationWarning, stacklevel=3)
         if not fallback:
-            return MultimorphError(msg)
+            return OutsideSupportError(msg)
         from multimorph.rom import solve_cell
 
         straight = cell.cell if isinstance(cell, TiltedCell) else cell

@@ -293,6 +293,13 @@ def _print_summary(result: Any, rob: Any, folder: Path, files: list[str]) -> Non
     if rob is not None:
         console.print(f"  robustness: P(order holds) = {rob.p_order:.1%}, P(all targets met) "
                       f"= {rob.p_meets:.1%} over {rob.n_samples} samples", highlight=False)
+        if rob.outside_support:
+            over = ("" if rob.p_order_supported is None else
+                    f"; over the {rob.n_samples - rob.outside_support} it answered: "
+                    f"{rob.p_order_supported:.1%} and {rob.p_meets_supported:.1%}")
+            console.print(f"    {rob.outside_support} of them outside the calibrated model's "
+                          f"support (no prediction, counted as failing){over}",
+                          highlight=False)
     console.print(f"files in {folder}: {', '.join(files)}")
 
 

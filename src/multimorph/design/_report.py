@@ -206,13 +206,17 @@ def report_markdown(result: DesignResult, robust: RobustnessReport | None = None
             sd = ", ".join(f"{k} ± {v:.3g}" for k, v in u["std"].items())
             L.append(f"- {name}: {u['source']} ({sd}; SI)")
         L += ["", f"Probability that the stage order holds: **{robust.p_order:.1%}**; that "
-              f"every target and constraint is met: **{robust.p_meets:.1%}**.", "",
-              "| stage | quantity | mean | std | 5 % | 95 % | not reached |",
-              "|---|---|---|---|---|---|---|"]
+              f"every target and constraint is met: **{robust.p_meets:.1%}**."]
+        if robust.outside_support:
+            L += ["", _outside_support_text(robust)]
+        L += ["", "| stage | quantity | mean | std | 5 % | 95 % | not reached | "
+              "no prediction |", "|---|---|---|---|---|---|---|---|"]
         for stage in t.stages:
             for q, value in robust.stages[stage.name].items():
+                out = int(value.get("outside_support") or 0)
+                gaps = f"{int(value['missing']) - out} | {out}"
                 if value["mean"] is None:
-                    L.append(f"| {stage.name} | {q} | — | — | — | — | {value['missing']} |")
+                    L.append(f"| {stage.name} | {q} | — | — | — | — | {gaps} |")
                     continue
                 if q == "magnitude":
                     def f(v, k=stage.kind):
@@ -220,7 +224,7 @@ def report_markdown(result: DesignResult, robust: RobustnessReport | None = None
                 else:
                     f = _fmt_p
                 L.append(f"| {stage.name} | {q} | {f(value['mean'])} | {f(value['std'])} | "
-                         f"{f(value['p05'])} | {f(value['p95'])} | {value['missing']} |")
+                         f"{f(value['p05'])} | {f(value['p95'])} | {gaps} |")
         L.append("")
     if result.rounds:
         L += ["## Model corrections (space mapping)", "",
@@ -362,6 +366,19 @@ def convergence_figure(result: DesignResult) -> Any:
     return fig
 
 
+def _outside_support_text(robust: RobustnessReport) -> str:
+    """What the probabilities mean where the model left samples unanswered."""
+    n, out = robust.n_samples, robust.outside_support
+    over = (f"over the {n - out} it answered: order {robust.p_order_supported:.1%}, every "
+            f"target {robust.p_meets_supported:.1%}" if robust.p_order_supported is not None
+            else "it answered none")
+    return (f"{out} of the {n} samples have a cell outside the calibrated model's support "
+            f"(its walls ±{robust.wall_tolerance * 1e3:.3g} mm take it past the calibrated "
+            f"box): the model gives no prediction there, and the probabilities above count "
+            f"them as failing; {over}. Check such a design in FE (`--verify-fe`) or keep it "
+            f"further inside the box.")
+
+
 def robustness_figure(robust: RobustnessReport, target: Any) -> Any:
     """Histograms of every stage's start and completion pressure over the samples."""
     from matplotlib.figure import Figure
@@ -379,7 +396,11 @@ def robustness_figure(robust: RobustnessReport, target: Any) -> Any:
         ax.axvline(stage.end_pressure / 1e3, color=f"C{i}", ls="--", lw=1)
     ax.set_xlabel("pressure (kPa)")
     ax.set_ylabel("samples")
-    ax.set_title(f"robustness: P(order holds) = {robust.p_order:.0%}", fontsize=10)
+    title = f"robustness: P(order holds) = {robust.p_order:.0%}"
+    if robust.outside_support:
+        title += (f" ({robust.outside_support} of {robust.n_samples} samples outside the "
+                  "calibrated support, counted as failing)")
+    ax.set_title(title, fontsize=9)
     ax.legend(fontsize=8)
     return fig
 

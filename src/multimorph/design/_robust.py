@@ -16,6 +16,14 @@ and scored like the nominal design; the report gives the probability that the st
 holds (Pc strictly increasing in target order), the probability that every target is met,
 and the mean, standard deviation and 5–95 % range of every stage's start and completion
 pressure and magnitude. Same seed, same samples.
+
+A sample the model cannot answer because a perturbed cell lies outside its support (the
+calibrated model without its Ritz fallback, as the designer runs it: a design at the edge of
+the calibrated box, with its walls ±0.1 mm, puts many samples past it) is not a sample whose
+order fails: it is counted apart (``outside_support``), and the two probabilities are also
+given over the samples the model answered (``p_order_supported``, ``p_meets_supported``).
+``p_order`` and ``p_meets`` stay over all samples, an unanswered one counted as failing (the
+``--robust`` ranking's conservative reading).
 """
 
 from __future__ import annotations
@@ -31,7 +39,7 @@ from multimorph.design._evaluate import Evaluation, evaluate_one
 from multimorph.design._models import BatchModel, CountingModel, rom_batch_model
 from multimorph.design._space import Candidate
 from multimorph.design._target import TargetSpec
-from multimorph.errors import SpecError
+from multimorph.errors import OutsideSupportError, SpecError
 from multimorph.geometry import CellGeometry
 from multimorph.materials import Material
 
@@ -64,12 +72,16 @@ class RobustnessReport:
     ----------
     n_samples, seed : int
     p_order : float
-        Probability that the stages start in the target order.
+        Probability that the stages start in the target order (a sample the model did not
+        answer counts as failing).
     p_meets : float
-        Probability that every target and constraint is met.
+        Probability that every target and constraint is met (the same).
     stages : dict
         Stage → {"start_pressure" | "end_pressure" | "magnitude": {mean, std, p05, p95,
-        missing}}.
+        missing, outside_support}}: ``missing`` the samples without the value, of them
+        ``outside_support`` those the model gave no prediction for.
+    outside_support, p_order_supported, p_meets_supported
+        See the module docstring.
     mean_objective : float
     uncertainty : dict
         The uncertainty model used (per material: source and standard deviations).
@@ -84,12 +96,20 @@ class RobustnessReport:
     uncertainty: dict[str, Any]
     wall_tolerance: float
     samples: dict[str, dict[str, np.ndarray]] = field(default_factory=dict, repr=False)
+    #: samples with a cell outside the model's support (no prediction; the module docstring)
+    outside_support: int = 0
+    #: p_order and p_meets over the samples the model answered (None: it answered none)
+    p_order_supported: float | None = None
+    p_meets_supported: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
         return {"n_samples": self.n_samples, "seed": self.seed, "p_order": self.p_order,
                 "p_meets": self.p_meets, "stages": self.stages,
                 "mean_objective": self.mean_objective, "uncertainty": self.uncertainty,
-                "wall_tolerance": self.wall_tolerance}
+                "wall_tolerance": self.wall_tolerance,
+                "outside_support": self.outside_support,
+                "p_order_supported": self.p_order_supported,
+                "p_meets_supported": self.p_meets_supported}
 
 
 def _perturb_cell(cell: CellGeometry, mats: dict[str, Material], rng: np.random.Generator,
@@ -170,32 +190,44 @@ def robustness(target: TargetSpec, design: Evaluation, *, n_samples: int = 64, s
     S = len(target.stages)
     evs = [evaluate_one(target, cd, out[k * S:(k + 1) * S], fixed_cells=n_cells)
            for k, cd in enumerate(cands)]
-    order_ok = 0
-    for e in evs:
+    # per sample and stage: the model gave no prediction (a cell outside its support)
+    unsupported = np.array([[isinstance(out[k * S + i], OutsideSupportError)
+                             for i in range(S)] for k in range(len(cands))], bool)
+    answered = ~unsupported.any(axis=1)
+    order = np.zeros(len(evs), bool)
+    for k, e in enumerate(evs):
         starts = [found.start for found in e.stages]
-        if all(found is not None for found in starts) and all(
-                a < b for a, b in itertools.pairwise(starts)):
-            order_ok += 1
+        order[k] = all(found is not None for found in starts) and all(
+            a < b for a, b in itertools.pairwise(starts))
+    meets = np.array([e.meets for e in evs], bool)
     stats: dict[str, dict[str, dict[str, float | int | None]]] = {}
     samples: dict[str, dict[str, np.ndarray]] = {}
     for i, stage in enumerate(target.stages):
         stats[stage.name] = {}
         for key in ("start", "end", "magnitude"):
-            vals = [getattr(e.stages[i], key) for e in evs]
+            # a stage the model did not answer has no value (not a zero motion)
+            vals = [None if unsupported[k, i] else getattr(e.stages[i], key)
+                    for k, e in enumerate(evs)]
             arr = np.array([v for v in vals if v is not None], float)
             label = {"start": "start_pressure", "end": "end_pressure"}.get(key, key)
             samples.setdefault(stage.name, {})[label] = np.array(
                 [np.nan if v is None else v for v in vals], float)
+            outside = int(unsupported[:, i].sum())
             if arr.size:
                 stats[stage.name][label] = {
                     "mean": float(arr.mean()), "std": float(arr.std(ddof=1)) if arr.size > 1
                     else 0.0, "p05": float(np.percentile(arr, 5)),
-                    "p95": float(np.percentile(arr, 95)), "missing": len(vals) - int(arr.size)}
+                    "p95": float(np.percentile(arr, 95)), "missing": len(vals) - int(arr.size),
+                    "outside_support": outside}
             else:
                 stats[stage.name][label] = {"mean": None, "std": None, "p05": None, "p95": None,
-                                         "missing": len(vals)}
+                                         "missing": len(vals), "outside_support": outside}
+    n_ans = int(answered.sum())
     return RobustnessReport(
-        n_samples=n_samples, seed=seed, p_order=order_ok / n_samples,
-        p_meets=sum(e.meets for e in evs) / n_samples, stages=stats,
+        n_samples=n_samples, seed=seed, p_order=float(order.mean()),
+        p_meets=float(meets.mean()), stages=stats,
         mean_objective=float(np.mean([min(e.objective, 1e6) for e in evs])),
-        uncertainty=uncertainty, wall_tolerance=wall_tolerance, samples=samples)
+        uncertainty=uncertainty, wall_tolerance=wall_tolerance, samples=samples,
+        outside_support=n_samples - n_ans,
+        p_order_supported=float(order[answered].mean()) if n_ans else None,
+        p_meets_supported=float(meets[answered].mean()) if n_ans else None)
