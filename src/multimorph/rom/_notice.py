@@ -22,7 +22,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from multimorph.rom._exported import exported
+from multimorph.rom._exported import cache_folder, exported
 
 __all__ = ["NOTICE", "announced"]
 
@@ -35,12 +35,6 @@ NOTICE_NO_CACHE = "compiling the model (the compilation cache is off: every run)
 _told: list[bool] = []  # once per process
 
 
-def _cache_folder() -> str | None:
-    import jax
-
-    return jax.config.jax_compilation_cache_dir or None
-
-
 def _marker(key: str, cache: str | None) -> Path | None:
     import jax
 
@@ -51,7 +45,7 @@ def _marker(key: str, cache: str | None) -> Path | None:
 
 
 def announced(fn: Callable[..., Any], key: str,
-              cache: Callable[[], str | None] = _cache_folder) -> Callable[..., Any]:
+              cache: Callable[[], str | None] = cache_folder) -> Callable[..., Any]:
     """``fn`` (a jitted kernel) that tells :data:`NOTICE` before its first call compiles.
 
     Parameters
