@@ -251,7 +251,10 @@ def compare_shear_responses(rom: Response, fe: Response, geometry: CellGeometry,
     Parameters
     ----------
     rom : Response
-        The straight cell's reduced-model response.
+        A cell model's response: the straight cell's (the Ritz twisting kinematics is
+        applied to it), or the tilted cell's with its own strip shear
+        (``path.extra["shear"]``, a model that answers tilted cells), as
+        :func:`multimorph.device.module_strains` reads either.
     fe : Response
         A full-model FE response of a strip of ``geometry`` cells tilted by ``tilt``
         (:func:`~multimorph.fe.simulate_cell` with ``tilt``): ``extra["shear"]`` is read.
@@ -288,8 +291,9 @@ def compare_shear_responses(rom: Response, fe: Response, geometry: CellGeometry,
 
 def compare_cell_run(rom: Response, fe: FEResult) -> Comparison | ShearComparison:
     """ROM vs FE of one cell run: a tilted strip's shear (:func:`compare_shear_responses`),
-    else Pc, Ph and κ(P) (:func:`compare_responses`); ``rom`` is the straight cell's
-    reduced-model response."""
+    else Pc, Ph and κ(P) (:func:`compare_responses`); ``rom`` is a cell model's response
+    (for a tilted strip: the straight cell's or the tilted cell's, see
+    :func:`compare_shear_responses`)."""
     tilt = fe.mesh.tilt
     if tilt:
         c: Comparison | ShearComparison = compare_shear_responses(rom, fe.response,
@@ -397,7 +401,9 @@ def compare_twisting(result: FETwistResult, module: Module | None = None, *,
     mid-height strain ε gives τ = ε sin 2β / R and the axial stretch 1 + ε cos²β. Both angles
     are in the sense of the tilt (FE: −sign(β) times the signed angle about +y; the reduced
     model: sign(β) τ L, its formula has no handedness of its own). Its Pc and Ph are those
-    of its cell response (read on the cell's curvature), FE's on the module's
+    of its cell response: read on the cell's curvature for a straight cell's response (the
+    Ritz model), on the tilted cell's twist rate for a model that answers tilted cells
+    (its strip shear is then the module's, ``path.extra["shear"]``); FE's on the module's
     twist rate.
 
     Parameters
@@ -406,8 +412,8 @@ def compare_twisting(result: FETwistResult, module: Module | None = None, *,
     module : Module, optional
         Default ``result.module``.
     rom : Response, optional
-        The reduced model's cell response; default :func:`multimorph.rom.solve_cell` on the
-        module's cell to ``rom_p_max``.
+        The cell model's response (the straight cell's, or the tilted cell's); default
+        :func:`multimorph.rom.solve_cell` on the module's straight cell to ``rom_p_max``.
     rom_p_max : float, optional
         Highest pressure of the reduced model (Pa); default twice the highest FE pressure
         (the reduced model is stiffer than FE and cheap).

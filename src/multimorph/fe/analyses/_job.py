@@ -143,8 +143,11 @@ def run_job(job: FEJob, *, progress: Progress | None = None,
 
     ``cell_model(cell, p_max) -> Response`` is the model the comparison runs (default
     :func:`multimorph.device.default_cell_model`, the calibrated model; the CLI's
-    ``fem --compare --model``); a tilted strip and a twisting module are compared with the
-    straight cell's response read by the twisting kinematics."""
+    ``fem --compare --model``). A tilted strip and a twisting module are compared with what
+    the model answers for them in a device (:func:`multimorph.device.simulate_device`):
+    a model that answers tilted cells (``model.tilted``: the calibrated and FE models) is
+    given the tilted cell and its own strip shear is read; another (the Ritz model) is given
+    the straight cell, read by the Ritz twisting kinematics γ = ε sin 2β."""
     model = cell_model or default_cell_model
     if job.kind == "cell":
         assert job.geometry is not None
@@ -152,7 +155,8 @@ def run_job(job: FEJob, *, progress: Progress | None = None,
                              n_cells=job.n_cells, tilt=job.tilt, checkpoint=checkpoint)
         if not job.compare:
             return FEOutcome(job, cell)
-        return FEOutcome(job, cell, compare_cell_run(model(job.geometry, job.p_end), cell))
+        answered = _as_the_model_answers(model, job.geometry, job.tilt)
+        return FEOutcome(job, cell, compare_cell_run(model(answered, job.p_end), cell))
     if job.kind == "device":
         assert job.device is not None
         device = simulate_device(job.device, job.settings, progress=progress,
@@ -170,5 +174,13 @@ def run_job(job: FEJob, *, progress: Progress | None = None,
     if not job.compare:
         return FEOutcome(job, twist)
     p_rom = 2.0 * float(np.max(twist.pressure))
-    return FEOutcome(job, twist, compare_twisting(twist, rom=model(job.module.cell, p_rom),
+    answered = _as_the_model_answers(model, job.module.cell, job.module.tilt)
+    return FEOutcome(job, twist, compare_twisting(twist, rom=model(answered, p_rom),
                                                   rom_p_max=p_rom))
+
+
+def _as_the_model_answers(model: CellModel, cell: CellGeometry, tilt: float,
+                          ) -> CellGeometry | TiltedCell:
+    """The cell ``model`` is asked for, as a device asks it: the tilted cell where there is
+    a tilt and the model answers tilted cells, else the straight cell."""
+    return TiltedCell(cell, tilt) if tilt and getattr(model, "tilted", False) else cell
