@@ -21,12 +21,19 @@ def test_there_are_figure_4_style_examples() -> None:
 
 @pytest.mark.parametrize("path", EXAMPLES, ids=lambda p: p.stem)
 def test_example_parses_and_every_design_is_valid(path: Path) -> None:
+    from multimorph.calibrated import load_model
+
     spec = load_sweep_spec(path)
-    assert spec.backend == "rom"
+    assert spec.backend == "calibrated-fast"   # the default cell model (since stop 61)
     assert spec.base.material.model == "gent"  # inline, independent of the library
     table = spec.design_table()
     assert len(table) == spec.n_designs >= 6
     assert not table.invalid, table.invalid[:3]
+    # every design inside the calibrated box: no Ritz fallback in an example's map
+    model = load_model()
+    outside = [(i, model.support(c)["outside"]) for i, c in enumerate(table.cells)
+               if not model.support(c)["inside"]]
+    assert not outside, outside
 
 
 def test_example_pipeline_runs_end_to_end_with_a_stand_in_model(tmp_path: Path) -> None:

@@ -502,11 +502,13 @@ def sweep_cases() -> Iterator[Case]:
         return Case(f"{cmd}/{kind}/{what}", cmd, kind, argv + extra, expect,
                     ((name, sub(text, old, new).encode()),))
 
-    be = 'backend = "rom"'
+    be = 'backend = "calibrated-fast"'
     yield case("code", "backend-os-system", be, 'backend = "os:system"', "sweep.backend")
     yield case("code", "backend-module-path", be, 'backend = "subprocess:run"',
                "sweep.backend")
     yield case("typo-key", "backend-name", be, 'backend = "romm"', "sweep.backend")
+    yield case("typo-key", "backend-name-calibrated", be, 'backend = "calibrated-fats"',
+               "sweep.backend")
     yield case("wrong-type", "backend-number", be, "backend = 5", "sweep.backend")
     yield case("huge", "num-1e9", "num = 7", "num = 1000000000", "num")
     yield case("huge", "two-params-1e5-each", "num = 7",

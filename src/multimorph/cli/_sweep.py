@@ -11,7 +11,7 @@ from multimorph.cli._common import console, default_out, emit_json, err_console,
 from multimorph.cli._help import PlainHelpCommand
 from multimorph.cli._progress import progress
 
-__all__ = ["FILES", "register", "sweep", "with_model"]
+__all__ = ["FILES", "register", "sweep", "sweep_model_line", "with_model"]
 
 #: What a sweep folder holds (multimorph.sweep's store): the manifest, the spec as given,
 #: the design table, one part per finished batch and, once complete, every result merged.
@@ -37,11 +37,13 @@ def sweep(
     allow_plugin: Annotated[list[str] | None, typer.Option(
         "--allow-plugin", metavar="MODULE:CALLABLE",
         help="Let the spec's backend be this import path (a factory of a sweep backend); "
-        "repeatable. Without it a spec can only name registered backends (rom, fe, installed "
-        "entry points): a spec file never imports code.")] = None,
+        "repeatable. Without it a spec can only name registered backends (calibrated-fast, "
+        "calibrated, ritz, rom, fe, installed entry points): a spec file never imports "
+        "code.")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print a JSON summary.")] = False,
     model: Annotated[str | None, typer.Option(
-        "--model", help="Cell model, overriding the spec's sweep.backend: calibrated (Ritz "
+        "--model", help="Cell model, overriding the spec's sweep.backend (which is "
+                        "calibrated-fast when the spec names none): calibrated (Ritz "
                         "corrected against 3D FE), calibrated-fast (the same on emulated Ritz "
                         "features: about 40 × faster, less accurate) or ritz (alias rom: the "
                         "reduced model, about twice as stiff as FE).")] = None,
@@ -80,6 +82,8 @@ def sweep(
                       f"{summary.n_failed} failed, {summary.n_invalid} invalid "
                       f"({summary.n_resumed} already done, {summary.n_run} run now) in "
                       f"{summary.elapsed:.1f} s")
+        console.print(f"  model: {sweep_model_line(summary.model, summary.models)}",
+                      highlight=False)
         for p in summary.invalid[:10]:
             console.print(f"  invalid design {p['index']} {p['values']}: {p['reason']}",
                           highlight=False)
@@ -95,6 +99,31 @@ def sweep(
                               f"({summary.n_failed}); the errors are in {summary.results}",
                               highlight=False, soft_wrap=True)
             raise typer.Exit(1)
+
+
+#: How far each cell model a sweep can run is from 3D FE, in a few words.
+_MODEL_WORDS = {
+    "calibrated-fast": "Ritz corrected against 3D FE, on emulated Ritz features; held-out "
+                       "error in docs/validation.md",
+    "calibrated": "Ritz corrected against 3D FE; held-out error in docs/validation.md",
+    "ritz": "reduced model; Pc about 2 × the 3D FE's",
+    "fe": "3D finite elements",
+}
+
+
+def sweep_model_line(model: str, models: dict[str, int]) -> str:
+    """Which cell model a sweep ran, how far it is from FE, and how many of its designs
+    another model answered (a calibrated model answers a cell outside its box with the
+    Ritz model: "…; 2 designs outside its calibrated box answered by the ritz model …")."""
+    line = f"{model} ({_MODEL_WORDS[model]})" if model in _MODEL_WORDS else model
+    for other, n in sorted(models.items()):
+        if other != model:
+            words = f" ({_MODEL_WORDS[other]})" if other in _MODEL_WORDS else ""
+            where = (" outside its calibrated box"
+                     if model.startswith("calibrated") and other == "ritz" else "")
+            line += (f"; {n} design{'s' if n != 1 else ''}{where} answered by the {other} "
+                     f"model{words}")
+    return line
 
 
 def with_model(spec: Path, model: str) -> Any:

@@ -27,6 +27,7 @@ from multimorph.sweep._params import RATIO_NAMES, Parameter
 from multimorph.sweep._run import SweepSummary, plan_batches, run_sweep
 from multimorph.sweep._spec import (
     CELL_KINDS,
+    DEFAULT_BACKEND,
     OUTPUTS,
     DesignTable,
     InvalidPoint,
@@ -46,6 +47,7 @@ from multimorph.sweep._store import (
 __all__ = [
     "CELL_KINDS",
     "CURVE_VARS",
+    "DEFAULT_BACKEND",
     "EXTRA_CURVE_VARS",
     "OUTPUTS",
     "RATIO_NAMES",

@@ -19,6 +19,7 @@ are recorded as failed. Dask also reschedules tasks of a worker that died.
 
 from __future__ import annotations
 
+import json
 import os
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -63,6 +64,12 @@ class SweepSummary:
     compute_time : float
         Wall time from the first task submitted to the last batch written (s).
     scheduler : str
+    model : str
+        The cell model the spec asked for (its backend; ``"ritz"`` for ``"rom"``).
+    models : dict
+        Designs that succeeded, by the model that answered them (a calibrated backend
+        answers a cell outside its box with the Ritz model: ``{"calibrated-fast": 5,
+        "ritz": 2}``).
     """
 
     out: Path
@@ -78,6 +85,8 @@ class SweepSummary:
     scheduler: str
     invalid: list[dict[str, Any]] = field(default_factory=list)
     failed: list[dict[str, Any]] = field(default_factory=list)
+    model: str = ""
+    models: dict[str, int] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         return {k: getattr(self, k) for k in self.__dataclass_fields__}
@@ -372,8 +381,30 @@ def run_sweep(spec: SweepSpec | str | os.PathLike[str], out: str | os.PathLike[s
     status = ds["status"].values
     err = ds["error"].values
     failed = [{"index": int(i), "error": str(err[i])} for i in np.flatnonzero(status == "failed")]
+    model = _model_name(spec.backend)
     return SweepSummary(
         out=store.path, results=results, n_designs=len(table), n_invalid=len(table.invalid),
         n_ok=int(np.sum(status == "ok")), n_failed=len(failed), n_resumed=n_resumed,
         n_run=total, elapsed=time.perf_counter() - t0, compute_time=t2 - t1, scheduler=label,
-        invalid=[p.to_dict() for p in table.invalid], failed=failed)
+        invalid=[p.to_dict() for p in table.invalid], failed=failed, model=model,
+        models=_answered_by(ds, status == "ok", model))
+
+
+def _model_name(backend: str) -> str:
+    """A backend's name as a cell model's (``"rom"`` is the Ritz model)."""
+    return "ritz" if backend == "rom" else backend
+
+
+def _answered_by(ds: Any, ok: np.ndarray, model: str) -> dict[str, int]:
+    """How many of the designs ``ok`` each cell model answered (each design's ``meta``
+    record names it; ``model`` where it does not)."""
+    counts: dict[str, int] = {}
+    metas = ds["meta"].values if "meta" in ds else np.full(ok.shape, "")
+    for m in metas[ok]:
+        try:
+            name = json.loads(str(m)).get("model") if m else None
+        except (ValueError, AttributeError):
+            name = None
+        name = _model_name(str(name)) if name else model
+        counts[name] = counts.get(name, 0) + 1
+    return counts

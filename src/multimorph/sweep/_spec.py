@@ -11,7 +11,9 @@ Example::
     jm = 20
 
     [sweep]
-    backend = "rom"             # or "fe"
+    backend = "calibrated-fast" # the default cell model (also when left out); "calibrated",
+                                # "ritz" (alias "rom": the reduced model, about twice as
+                                # stiff as FE) or "fe"
     outputs = ["characteristic", "curves"]
     pmax = "60 kPa"
     combine = "grid"            # "grid" (product), "zip", "random", or the space-filling
@@ -59,8 +61,13 @@ from multimorph.names import kind_name
 from multimorph.sweep._params import Parameter, parse_parameter
 from multimorph.units import to_si
 
-__all__ = ["CELL_KINDS", "OUTPUTS", "DesignTable", "InvalidPoint", "SweepSpec", "load_sweep_spec",
-           "parse_sweep_spec"]
+#: The backend of a spec that names none: the default cell model
+#: (:data:`multimorph.models.DEFAULT_MODEL`, the calibrated model on emulated Ritz features;
+#: until stop 61 the Ritz model, ``"rom"``).
+DEFAULT_BACKEND = "calibrated-fast"
+
+__all__ = ["CELL_KINDS", "DEFAULT_BACKEND", "OUTPUTS", "DesignTable", "InvalidPoint",
+           "SweepSpec", "load_sweep_spec", "parse_sweep_spec"]
 
 #: What a sweep can store per design.
 OUTPUTS = ("characteristic", "curves")
@@ -138,8 +145,9 @@ class SweepSpec:
     seed : int
         Random seed (``combine = "random"``).
     backend : str
-        ``"rom"``, ``"fe"``, or a backend registered with
-        :func:`multimorph.sweep.register_backend`.
+        ``"calibrated-fast"`` (:data:`DEFAULT_BACKEND`, when the spec names none),
+        ``"calibrated"``, ``"ritz"`` (alias ``"rom"``), ``"fe"``, or a backend registered
+        with :func:`multimorph.sweep.register_backend`.
     outputs : tuple of str
         Subset of ``("characteristic", "curves")``.
     pmax : float
@@ -354,9 +362,10 @@ def parse_sweep_spec(raw: Mapping[str, Any]) -> SweepSpec:
         raise SpecError(f"sweep: unknown key(s) {', '.join(bad)}; expected "
                         f"{', '.join(sorted(_SWEEP_KEYS))}")
 
-    backend = sweep.get("backend", "rom")
+    backend = sweep.get("backend", DEFAULT_BACKEND)
     if not isinstance(backend, str) or not backend:
-        raise SpecError(f"sweep.backend: expected \"rom\" or \"fe\", got {backend!r}")
+        raise SpecError(f"sweep.backend: expected the name of a backend (calibrated-fast, "
+                        f"calibrated, ritz, fe), got {backend!r}")
     outputs = sweep.get("outputs", ["characteristic"])
     if isinstance(outputs, str):
         outputs = [outputs]

@@ -273,6 +273,14 @@ class SweepStore:
                     f"--out: {self.path} holds results of a different sweep spec (hash "
                     f"{str(old_hash)[:12]}, this spec {self.spec.spec_hash[:12]}); "
                     "use another --out folder or delete that one")
+            if old.get("backend", self.spec.backend) != self.spec.backend:
+                # the same spec, read with another default backend (a spec that names
+                # none: the Ritz model until stop 61, the default cell model since)
+                raise SpecError(
+                    f"--out: {self.path} holds results of this spec computed with backend "
+                    f"{old['backend']!r}; it now runs on {self.spec.backend!r}, and one "
+                    f"store never mixes two models: name backend = {old['backend']!r} in "
+                    "[sweep] to resume it, or use another --out folder")
         else:
             others = [p.name for p in self.path.iterdir() if not p.name.startswith(".")]
             if others:
