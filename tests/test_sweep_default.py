@@ -15,7 +15,15 @@ from typer.testing import CliRunner
 from multimorph.cli import _sweep
 from multimorph.errors import SpecError
 from multimorph.models import DEFAULT_MODEL
-from multimorph.sweep import DEFAULT_BACKEND, SweepStore, load_sweep_spec, parse_sweep_spec
+from multimorph.sweep import (
+    DEFAULT_BACKEND,
+    SweepStore,
+    answered_by,
+    load_sweep_spec,
+    open_results,
+    parse_sweep_spec,
+)
+from multimorph.viz import model_note
 from test_sweep_cli import make_app
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
@@ -85,6 +93,11 @@ def test_the_summary_says_which_model_answered_each_design(tmp_path: Path) -> No
                                         "--scheduler", "sync"])
     assert r.exit_code == 0, r.output
     assert "model: calibrated-fast" in r.output and "answered by the ritz" in r.output
+    # and the maps drawn from these results say so in their titles
+    ds = open_results(out)
+    assert answered_by(ds) == ("calibrated-fast", {"calibrated-fast": 2, "ritz": 1})
+    assert model_note(ds) == ("calibrated-fast model (corrected against 3D FE); 1 design by "
+                              "the ritz model (outside its box)")
 
 
 def test_a_folder_run_on_another_backend_is_not_resumed(tmp_path: Path) -> None:

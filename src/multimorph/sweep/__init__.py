@@ -37,6 +37,7 @@ from multimorph.sweep._spec import (
 )
 from multimorph.sweep._store import (
     SweepStore,
+    answered_by,
     collect_parts,
     open_results,
     param_var,
@@ -61,6 +62,7 @@ __all__ = [
     "SweepSpec",
     "SweepStore",
     "SweepSummary",
+    "answered_by",
     "collect_parts",
     "evaluate_designs",
     "get_backend",

@@ -19,7 +19,6 @@ are recorded as failed. Dask also reschedules tasks of a worker that died.
 
 from __future__ import annotations
 
-import json
 import os
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -33,7 +32,7 @@ from multimorph.errors import MultimorphError, SpecError
 from multimorph.geometry import CellGeometry
 from multimorph.sweep._backends import SweepBackend, evaluate_designs, get_backend, load_plugin
 from multimorph.sweep._spec import SweepSpec, load_sweep_spec
-from multimorph.sweep._store import SweepStore
+from multimorph.sweep._store import SweepStore, answered_by
 
 __all__ = ["SweepSummary", "plan_batches", "run_sweep"]
 
@@ -381,30 +380,11 @@ def run_sweep(spec: SweepSpec | str | os.PathLike[str], out: str | os.PathLike[s
     status = ds["status"].values
     err = ds["error"].values
     failed = [{"index": int(i), "error": str(err[i])} for i in np.flatnonzero(status == "failed")]
-    model = _model_name(spec.backend)
+    model, models = answered_by(ds)
     return SweepSummary(
         out=store.path, results=results, n_designs=len(table), n_invalid=len(table.invalid),
         n_ok=int(np.sum(status == "ok")), n_failed=len(failed), n_resumed=n_resumed,
         n_run=total, elapsed=time.perf_counter() - t0, compute_time=t2 - t1, scheduler=label,
         invalid=[p.to_dict() for p in table.invalid], failed=failed, model=model,
-        models=_answered_by(ds, status == "ok", model))
+        models=models)
 
-
-def _model_name(backend: str) -> str:
-    """A backend's name as a cell model's (``"rom"`` is the Ritz model)."""
-    return "ritz" if backend == "rom" else backend
-
-
-def _answered_by(ds: Any, ok: np.ndarray, model: str) -> dict[str, int]:
-    """How many of the designs ``ok`` each cell model answered (each design's ``meta``
-    record names it; ``model`` where it does not)."""
-    counts: dict[str, int] = {}
-    metas = ds["meta"].values if "meta" in ds else np.full(ok.shape, "")
-    for m in metas[ok]:
-        try:
-            name = json.loads(str(m)).get("model") if m else None
-        except (ValueError, AttributeError):
-            name = None
-        name = _model_name(str(name)) if name else model
-        counts[name] = counts.get(name, 0) + 1
-    return counts

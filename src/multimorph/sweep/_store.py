@@ -38,8 +38,8 @@ from multimorph.io import write_json
 from multimorph.sweep._backends import CURVE_VARS, EXTRA_CURVE_VARS, SCALAR_VARS
 from multimorph.sweep._spec import DesignTable, SweepSpec
 
-__all__ = ["SweepStore", "collect_parts", "open_results", "param_var", "safe_name",
-           "write_part_group"]
+__all__ = ["SweepStore", "answered_by", "collect_parts", "open_results", "param_var",
+           "safe_name", "write_part_group"]
 
 FORMAT = "multimorph-sweep/1"
 
@@ -493,3 +493,28 @@ def open_results(path: str | os.PathLike[str]) -> Any:
             p / "sweep.json").exists() else ""
         raise MultimorphError(f"{path}: no sweep results found{hint}")
     return xr.open_zarr(p, consolidated=False).load()
+
+
+def answered_by(ds: Any) -> tuple[str, dict[str, int]]:
+    """Which cell model a sweep's results asked for and which answered its designs.
+
+    Returns the backend as a model name (``"ritz"`` for ``"rom"``) and the designs that
+    succeeded, counted by the model that answered each (its ``meta`` record names it; a
+    calibrated backend answers a cell outside its box with the Ritz model), e.g.
+    ``("calibrated-fast", {"calibrated-fast": 5, "ritz": 2})``.
+    """
+    def name(backend: str) -> str:
+        return "ritz" if backend == "rom" else backend
+
+    model = name(str(ds.attrs.get("backend", "")))
+    ok = np.asarray(ds["status"].values) == "ok"
+    metas = ds["meta"].values if "meta" in ds else np.full(ok.shape, "")
+    counts: dict[str, int] = {}
+    for m in metas[ok]:
+        try:
+            who = json.loads(str(m)).get("model") if m else None
+        except (ValueError, AttributeError):
+            who = None
+        who = name(str(who)) if who else model
+        counts[who] = counts.get(who, 0) + 1
+    return model, counts

@@ -24,8 +24,8 @@ import numpy as np
 
 from multimorph.errors import MultimorphError
 
-__all__ = ["design_maps", "families_figure", "pc_contour_figure", "pc_line_figure",
-           "resolve_variable"]
+__all__ = ["design_maps", "families_figure", "model_note", "pc_contour_figure",
+           "pc_line_figure", "resolve_variable"]
 
 _MODULI = {"mu", "mu_b", "param_mu"}
 
@@ -61,6 +61,36 @@ def resolve_variable(ds: Any, name: str) -> tuple[str, str]:
 
 def _is_modulus(var: str) -> bool:
     return var in _MODULI or var.startswith("param_cell_material_mu")
+
+
+#: How far each cell model is from 3D FE, in a figure title's few words.
+_MODEL_WORDS = {"calibrated-fast": "corrected against 3D FE",
+                "calibrated": "corrected against 3D FE",
+                "ritz": "Pc about 2 × the 3D FE's", "fe": "3D FE"}
+
+
+def model_note(ds: Any) -> str:
+    """Which cell model drew a map, for its title: the sweep's model, and how many of its
+    designs another model answered (a calibrated model's cells outside its box: Ritz).
+    Empty for results that do not say."""
+    from multimorph.sweep import answered_by
+
+    if not ds.attrs.get("backend") or "status" not in ds:
+        return ""
+    model, counts = answered_by(ds)
+    words = _MODEL_WORDS.get(model)
+    note = f"{model} model" + (f" ({words})" if words else "")
+    for other, n in sorted(counts.items()):
+        if other != model:
+            note += f"; {n} design{'s' if n != 1 else ''} by the {other} model"
+            if model.startswith("calibrated") and other == "ritz":
+                note += " (outside its box)"
+    return note
+
+
+def _titled(ax: Any, ds: Any, title: str) -> None:
+    note = model_note(ds).replace("; ", "\n")
+    ax.set_title(title + (f"\n{note}" if note else ""), fontsize=9 if note else None)
 
 
 def _ok(ds: Any) -> np.ndarray:
@@ -128,7 +158,7 @@ def families_figure(ds: Any, x: str, *, max_curves: int = 12) -> Any:
         del k
     ax.set_xlabel("P/μ")
     ax.set_ylabel("κd/(2π)")
-    ax.set_title(f"curvature families over {label} (dots: Pc)")
+    _titled(ax, ds, f"curvature families over {label} (dots: Pc)")
     ax.legend(fontsize=7, loc="upper left")
     ax.grid(alpha=0.3)
     return fig
@@ -174,7 +204,7 @@ def pc_line_figure(ds: Any, x: str, group: str | None = None) -> Any:
                 label="failed / invalid")
     ax.set_xlabel(f"{label}{unit}")
     ax.set_ylabel(ylab)
-    ax.set_title(f"{ylab.split(' ')[0]} vs {label}")
+    _titled(ax, ds, f"{ylab.split(' ')[0]} vs {label}")
     ax.legend(fontsize=7)
     ax.grid(alpha=0.3)
     return fig
@@ -217,7 +247,7 @@ def pc_contour_figure(ds: Any, x: str, y: str) -> Any:
         ax.legend(fontsize=7)
     ax.set_xlabel(f"{xl}{xu}")
     ax.set_ylabel(f"{yl}{yu}")
-    ax.set_title(f"{zlab.split(' ')[0]} over {xl} and {yl}")
+    _titled(ax, ds, f"{zlab.split(' ')[0]} over {xl} and {yl}")
     return fig
 
 
