@@ -98,6 +98,10 @@ def test_the_summary_says_which_model_answered_each_design(tmp_path: Path) -> No
     assert answered_by(ds) == ("calibrated-fast", {"calibrated-fast": 2, "ritz": 1})
     assert model_note(ds) == ("calibrated-fast model (corrected against 3D FE); 1 design by "
                               "the ritz model (outside its box)")
+    r = CliRunner().invoke(make_app(), ["plot", "map", str(out), "--json"])
+    assert r.exit_code == 0, r.output
+    drawn = json.loads(r.stdout)
+    assert (drawn["model"], drawn["models"]) == answered_by(ds)
 
 
 def test_a_folder_run_on_another_backend_is_not_resumed(tmp_path: Path) -> None:

@@ -40,17 +40,21 @@ def plot_map(
     """
     if fmt not in ("png", "svg", "pdf"):
         fail(f"--format: expected png, svg or pdf, got {fmt!r}", as_json=as_json)
-    from multimorph.sweep import open_results
-    from multimorph.viz import design_maps
+    from multimorph.sweep import answered_by, open_results
+    from multimorph.viz import design_maps, model_note
 
     with handle_errors(as_json):
         ds = open_results(results)
         folder = out if out is not None else (
             results.parent if results.name == "results.zarr" else results) / "maps"
         files = design_maps(ds, folder, x=x, y=y, fmt=fmt)
+        model, models = answered_by(ds) if "status" in ds else ("", {})
         if as_json:
-            emit_json({"files": [str(f) for f in files]})
+            emit_json({"files": [str(f) for f in files], "model": model, "models": models})
         else:
+            note = model_note(ds)
+            if note:
+                console.print(f"model: {note}", highlight=False)
             for f in files:
                 console.print(f"wrote {f}", highlight=False)
 
