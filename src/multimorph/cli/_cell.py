@@ -57,6 +57,7 @@ def cell_summary(response: Any) -> dict[str, Any]:
         "model": response.meta.get("model", response.backend),
         **({"calibration": response.meta["calibration"]}
            if "calibration" in response.meta else {}),
+        **({"runaway": response.meta["runaway"]} if "runaway" in response.meta else {}),
     }
 
 
@@ -214,6 +215,8 @@ def cell(
                   f"{'none (no knee: see the model line)' if none else kpa(ch.critical)}")
     console.print(f"  hardening pressure Ph: {'none' if none else kpa(ch.hardening)}")
     console.print(f"  failure pressure: {kpa(ch.failure)}")
+    if "runaway" in data:
+        console.print(f"  runaway at Pc: {data['runaway']['reason']}", highlight=False)
     if ch.signal == "axial_stretch":
         console.print(f"  symmetric (stretching) cell: Pc and Ph read on the axial stretch; "
                       f"max axial stretch {max(data['axial_stretch']):.4g}")

@@ -21,7 +21,13 @@ from multimorph.rom._continuation import (
     make_tracer,
     trace_path,
 )
-from multimorph.rom._model import DEFAULT_SETTINGS, cell_theta, solve_cell
+from multimorph.rom._model import (
+    DEFAULT_SETTINGS,
+    RUNAWAY_VOLUME_RATIO,
+    cell_theta,
+    runaway_points,
+    solve_cell,
+)
 from multimorph.rom._notice import announced
 from multimorph.rom._sensitivity import (
     LENGTHS,
@@ -37,6 +43,7 @@ __all__ = [
     "COORDINATES",
     "DEFAULT_SETTINGS",
     "LENGTHS",
+    "RUNAWAY_VOLUME_RATIO",
     "CellBatch",
     "ContinuationError",
     "PathSensitivity",
@@ -50,6 +57,7 @@ __all__ = [
     "characteristic_sensitivity",
     "make_tracer",
     "path_sensitivity",
+    "runaway_points",
     "simulate_cell",
     "simulate_cells",
     "solve_batch",

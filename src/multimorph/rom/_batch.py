@@ -36,6 +36,8 @@ from multimorph.rom._model import (
     free_settings,
     options_for,
     padded_measures,
+    runaway_points,
+    runaway_record,
 )
 from multimorph.rom._notice import announced
 
@@ -193,17 +195,28 @@ class ResponseBatch:
                    "tangent_p": self.tangent_p[i, :m]})
 
     def response(self, i: int) -> Response:
-        """Full :class:`Response` of design ``i``; raises if its trace failed."""
-        if not self.ok[i]:
+        """Full :class:`Response` of design ``i``; raises if its trace failed. A trace that
+        ran out of steps on a runaway (:func:`~multimorph.rom.runaway_points`) is answered
+        with its path up to the runaway's volume, as :func:`solve_cell` answers it."""
+        runs_out = int(self.status[i]) == Outcome.MAX_STEPS.code
+        if not self.ok[i] and not runs_out:
             raise ContinuationError(f"cell ROM, design {i}: {self.message(i)}")
+        path = self.path(i)
+        meta: dict[str, Any] = {}
+        if not self.ok[i]:
+            keep = runaway_points(path.pressure, path.volume)
+            if keep is None:
+                raise ContinuationError(f"cell ROM, design {i}: {self.message(i)}")
+            path = path.take(slice(0, keep))
+            meta["runaway"] = runaway_record(path)
         bs = float(self.cells.break_stretch[i]) if self.cells.break_stretch.size else np.nan
-        return build_response(self.path(i), length=float(self.cells.length[i]),
+        return build_response(path, length=float(self.cells.length[i]),
                               shear_modulus=float(self.cells.mu[i]), backend="rom",
                               break_stretch=None if np.isnan(bs) else bs,
                               signal="axial_stretch" if self.options.mirror else "curvature",
                               meta={"model": "cell-ritz", "batch_index": i,
-                                    "points": int(self.count[i]),
-                                    "rejected_steps": int(self.n_rejected[i])})
+                                    "points": len(path),
+                                    "rejected_steps": int(self.n_rejected[i]), **meta})
 
 
 @lru_cache(maxsize=16)

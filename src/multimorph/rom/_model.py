@@ -27,8 +27,50 @@ from multimorph.rom._continuation import (
 )
 from multimorph.rom._notice import announced
 
-__all__ = ["DEFAULT_SETTINGS", "cell_theta", "cell_tracer", "material_theta", "options_for",
-           "solve_cell"]
+__all__ = ["DEFAULT_SETTINGS", "RUNAWAY_VOLUME_RATIO", "cell_theta", "cell_tracer",
+           "material_theta", "options_for", "runaway_points", "runaway_record", "solve_cell"]
+
+#: A trace that ran out of steps while its chamber grew past this volume ratio with the
+#: pressure falling all the way from its limit point is a runaway (a wall without strain
+#: hardening within reach: neo-Hooke, or Gent of a very large Jm), kept up to the first
+#: point past it: the stop of the FE reference data set's runs (``max_volume_ratio``).
+RUNAWAY_VOLUME_RATIO = 25.0
+
+
+def runaway_points(pressure: np.ndarray, volume: np.ndarray) -> int | None:
+    """How many points of a trace that ran out of steps make a runaway path, or None.
+
+    A runaway: up to the first point where the chamber has grown past
+    :data:`RUNAWAY_VOLUME_RATIO` × its first volume, the pressure reaches its largest value
+    at an interior point (the limit point) and falls from there without rising again (to
+    10⁻⁹ of it). The path is kept up to that point: under pressure control the cell snaps
+    at the limit point with no stable branch to land on before that volume (its loading
+    curve ends there, Pc is the limit point, there is no Ph), the volume at which the FE
+    reference data set's runs stop too. None where the pressure rises again before it
+    (strain hardening ahead: the trace was just too long) or the chamber never got that
+    far.
+
+    Examples
+    --------
+    >>> P = np.array([0.0, 1.0, 2.0, 1.5, 1.0, 0.8, 0.7])
+    >>> V = np.array([1.0, 1.5, 2.0, 6.0, 20.0, 30.0, 50.0])
+    >>> runaway_points(P, V)
+    6
+    >>> runaway_points(P, np.sqrt(V)) is None, runaway_points(P[:5], V[:5]) is None
+    (True, True)
+    """
+    p = np.asarray(pressure, float)
+    v = np.asarray(volume, float)
+    if p.size < 3 or not (v.size == p.size and np.all(np.isfinite(v)) and v[0] > 0):
+        return None
+    over = np.flatnonzero(v >= RUNAWAY_VOLUME_RATIO * v[0])
+    if over.size == 0:
+        return None
+    end = int(over[0])
+    i = int(np.argmax(p[:end + 1]))
+    if i == 0 or i >= end or np.any(np.diff(p[i:end + 1]) > 1e-9 * p[i]):
+        return None
+    return end + 1
 
 #: Step control of the cell tracer: coordinates (κd, φt, φs, e, ψ) and p = P/μ scaled so that
 #: one unit of arc length is about a radian of bulge or bend, or 0.2 μ of pressure. A Newton
@@ -186,25 +228,47 @@ def solve_cell(cell: CellGeometry, p_max: float, *, options: RomOptions | None =
     mu = cell.mu
     out = tracer(jnp.zeros(ck.n_free), theta, jnp.asarray(p_max / mu))
     raw = raw_path_from_arrays(out, ck.n_free)
-    if not raw.ok:
-        stalled = raw.outcome is Outcome.STALLED
-        where = (f" at step {raw.fail_step}, P = {raw.fail_p * mu / 1e3:.4g} kPa"
-                 if stalled else "")
-        why = raw.outcome.message + (f": {REASON_TEXT.get(raw.reason, '')}" if stalled else "")
-        last = raw.p[-1] * mu / 1e3
-        raise ContinuationError(
-            f"cell ROM: could not trace the equilibrium path to {p_max / 1e3:.4g} kPa"
-            f"{where} ({why}; last converged P = {last:.4g} kPa); a maximum pressure below "
-            f"{last:.4g} kPa can be traced")
+    if not raw.ok and raw.outcome is not Outcome.MAX_STEPS:
+        raise _trace_error(raw, p_max, mu)
     qf = raw.q
     meas = padded_measures(measures, qf, raw.p, theta)
     q = np.zeros((qf.shape[0], len(COORDINATES)))
     q[:, list(opts.free)] = qf
     path = path_from_raw(cell, raw, q, meas)
+    meta: dict[str, Any] = {}
+    if not raw.ok:
+        keep = runaway_points(path.pressure, path.volume)
+        if keep is None:
+            raise _trace_error(raw, p_max, mu)
+        path = path.take(slice(0, keep))
+        meta["runaway"] = runaway_record(path)
     return build_response(
         path, length=cell.length, shear_modulus=mu, backend="rom",
         break_stretch=cell.material.break_stretch, signal=cell.signal,
         meta={"model": "cell-ritz", "coordinates": list(COORDINATES),
-              "options": opts.__dict__.copy(), "points": len(raw.p),
+              "options": opts.__dict__.copy(), "points": len(path),
               "rejected_steps": raw.n_rejected, "evaluations": raw.n_eval,
-              "p_max": p_max})
+              "p_max": p_max, **meta})
+
+
+def runaway_record(path: EquilibriumPath) -> dict[str, Any]:
+    """What a response says of a runaway path (:func:`runaway_points`)."""
+    i = int(np.argmax(path.pressure))
+    return {"limit_pressure": float(path.pressure[i]),
+            "volume_ratio_end": float(path.volume[-1] / path.volume[0]),
+            "reason": ("no strain hardening within reach: past its limit point the pressure "
+                       "falls as the chamber grows, up to V/V0 = "
+                       f"{RUNAWAY_VOLUME_RATIO:g} (a runaway under pressure control, nothing "
+                       "to land on; the path ends there)")}
+
+
+def _trace_error(raw: RawPath, p_max: float, mu: float) -> ContinuationError:
+    stalled = raw.outcome is Outcome.STALLED
+    where = (f" at step {raw.fail_step}, P = {raw.fail_p * mu / 1e3:.4g} kPa"
+             if stalled else "")
+    why = raw.outcome.message + (f": {REASON_TEXT.get(raw.reason, '')}" if stalled else "")
+    last = raw.p[-1] * mu / 1e3
+    return ContinuationError(
+        f"cell ROM: could not trace the equilibrium path to {p_max / 1e3:.4g} kPa"
+        f"{where} ({why}; last converged P = {last:.4g} kPa); a maximum pressure below "
+        f"{last:.4g} kPa can be traced")
