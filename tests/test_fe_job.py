@@ -97,3 +97,15 @@ def test_the_twisting_comparison_reads_the_twist_simulate_predicts() -> None:
     straight = compare_twisting(fe, twister, rom=model(twister.cell, 6.0e4))
     assert straight["signal_rom"] == "curvature"
     assert abs(straight["pc_rom"] / out["pc_rom"] - 1.0) > 0.1
+
+
+def test_the_comparison_figure_names_the_model_it_ran() -> None:
+    """``comparison.png``'s title says which cell model FE was compared with (it read
+    "reduced model vs 3D FE" over a calibrated model's curve)."""
+    from multimorph.fe.report._files import _compared_model
+
+    assert _compared_model(SimpleNamespace(meta={"model": "calibrated"})) == "calibrated"
+    assert _compared_model({"module": "tw", "model": "calibrated-fast"}) == "calibrated-fast"
+    assert _compared_model({"a": {"model": "calibrated"}, "b": {"model": "ritz"}}) == \
+        "calibrated / ritz"
+    assert _compared_model({}) == "reduced"

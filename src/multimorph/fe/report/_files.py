@@ -344,4 +344,21 @@ def write_comparison_figure(outcome: FEOutcome, path: Path) -> None:
     if job.tilt:
         what = f"strip of {job.n_cells} cells tilted {math.degrees(job.tilt):.3g}°"
     plot_comparison(comparison_curves(outcome.comparison), path,
-                    title=f"{what}: reduced model vs 3D FE")
+                    title=f"{what}: {_compared_model(outcome.comparison)} model vs 3D FE")
+
+
+def _compared_model(comparison: Any) -> str:
+    """The cell model a comparison ran (``calibrated``, ``ritz`` …; "reduced" where it does
+    not say): a cell's ``meta["model"]``, a twisting module's ``model``, a device's
+    modules' ``model``."""
+    meta = getattr(comparison, "meta", None)
+    if isinstance(meta, dict) and meta.get("model"):
+        return str(meta["model"])
+    if isinstance(comparison, dict):
+        if isinstance(comparison.get("model"), str):
+            return comparison["model"]
+        names = sorted({str(m["model"]) for m in comparison.values()
+                        if isinstance(m, dict) and m.get("model")})
+        if names:
+            return " / ".join(names)
+    return "reduced"
