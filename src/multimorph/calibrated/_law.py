@@ -45,8 +45,9 @@ import numpy as np
 from multimorph.geometry import CellGeometry, TiltedCell
 
 __all__ = ["KNEELESS_KINDS", "LAW_MAP_SET", "MEMBRANE_VOLUME_RATIO", "SHAPE_STRETCH",
-           "effective_cell", "effective_material", "law_shape", "membrane_limit_point",
-           "membrane_summary", "wall_activates", "widen_band"]
+           "drucker_limit", "effective_cell", "effective_material", "law_shape",
+           "membrane_limit_point", "membrane_summary", "unstable_laws", "wall_activates",
+           "widen_band"]
 
 #: The FE set the mapping is calibrated on (its training designs; the held-out fifth
 #: checks it, with the `yeoh` sets).
@@ -106,6 +107,44 @@ def membrane_limit_point(material: Any) -> bool | None:
     a knee whether or not it snaps)."""
     curve = _membrane_pressure(material)
     return None if curve is None else bool(np.any(np.diff(curve[1]) < 0.0))
+
+
+def drucker_limit(material: Any) -> float | None:
+    """The equibiaxial stretch at which ``material`` loses Drucker stability in tension,
+    within the stretches a chamber wall reaches (up to :data:`MEMBRANE_VOLUME_RATIO`^(1/3),
+    a balloon's hoop stretch at that volume), or None where it stays stable there.
+
+    A law fitted to uniaxial data alone can lose it early: every Mooney–Rivlin fit of the
+    library has c01 < 0 and loses it at λ ≈ 1.04–1.7 (its balloon "peaks" at a hoop
+    stretch of 1.03–1.27), where its Gent, Yeoh, reduced-polynomial and neo-Hooke fits stay
+    stable. A cell
+    model on such a wall describes the fit, not the elastomer (``multimorph material show
+    NAME --model LAW`` prints "Drucker-stable: False")."""
+    if material.model in ("gent", "neo-hooke"):
+        return None                      # stable for every admissible parameter set
+    key = (material.model, tuple(sorted((k, float(v)) for k, v in material.params.items())))
+    if key not in _DRUCKER:
+        from multimorph.materials import drucker_stability
+
+        report = drucker_stability(material, (0.5, MEMBRANE_VOLUME_RATIO ** (1.0 / 3.0)))
+        _DRUCKER[key] = report.first_unstable["equibiaxial"][1]
+    return _DRUCKER[key]
+
+
+_DRUCKER: dict[tuple[Any, ...], float | None] = {}
+
+
+def unstable_laws(cell: CellGeometry | TiltedCell) -> dict[str, dict[str, Any]]:
+    """The cell's elastomers (``"wall"``, ``"bottom"``) whose law loses Drucker stability
+    where a chamber wall is stretched (:func:`drucker_limit`): ``{elastomer: {"model",
+    "name", "equibiaxial_stretch"}}``; empty where both are stable."""
+    c = cell.cell if isinstance(cell, TiltedCell) else cell
+    out: dict[str, dict[str, Any]] = {}
+    for which, m in (("wall", c.material), ("bottom", c.bottom_material)):
+        lam = None if m is None else drucker_limit(m)
+        if lam is not None:
+            out[which] = {"model": m.model, "name": m.name, "equibiaxial_stretch": lam}
+    return out
 
 
 def membrane_summary(material: Any) -> dict[str, Any]:

@@ -446,6 +446,7 @@ class CalibratedModel:
                 g = given[i].cell if isinstance(given[i], TiltedCell) else given[i]
                 if not wall_activates(g.material):
                     out[i] = _without_activation(res, g.material)
+        _mark_unstable_laws(given, out)
         return out
 
     def _law_bands(self, res: Response, law: dict[str, Any]) -> dict[str, Any]:
@@ -614,6 +615,39 @@ class CalibratedModel:
                                    "(inputs: the groups, the tilt and the straight cell's "
                                    "calibrated pressures at the plate level); " + how),
                       "shear_law": "volume+gp" if law is not None else "gp", "std": sd}
+
+
+def _mark_unstable_laws(cells: Sequence[CellGeometry | TiltedCell],
+                        out: list[Response | Exception]) -> None:
+    """Say where a cell's elastomer law loses Drucker stability where a chamber wall is
+    stretched (``_law.unstable_laws``: every library Mooney–Rivlin fit), whatever answered
+    it: one warning per law, and ``calibration.unstable_law`` on its responses. Before
+    stop 61 such a wall was answered silently (Dragon Skin 30's Mooney–Rivlin fit: a Ritz
+    Pc of 8.5 kPa, where its Gent fit gives 55 kPa)."""
+    from multimorph.calibrated._law import unstable_laws
+
+    said: set[str] = set()
+    for i, cell in enumerate(cells):
+        bad = unstable_laws(cell)
+        if not bad:
+            continue
+        laws: dict[tuple[Any, ...], list[str]] = {}
+        for which, b in bad.items():       # a wall and bottom of one law: said once
+            laws.setdefault((b["model"], b["name"], b["equibiaxial_stretch"]), []).append(which)
+        msg = ("calibrated model: " + "; ".join(
+            f"the {' and '.join(whiches)} law ({model}{', ' + name if name else ''}) loses "
+            f"Drucker stability in equibiaxial tension at λ = {lam:.3g}"
+            for (model, name, lam), whiches in laws.items())
+            + ": a chamber wall of it has no physical ballooning to predict, and any "
+              "model's answer describes the fit, not the elastomer (use its gent or yeoh "
+              "fit)")
+        if msg not in said:
+            warnings.warn(msg, CalibrationWarning, stacklevel=3)
+            said.add(msg)
+        res = out[i]
+        if isinstance(res, Response):
+            out[i] = res.with_meta(calibration={**(res.meta.get("calibration") or {}),
+                                                "unstable_law": bad})
 
 
 #: The largest relative half-width (in log) of a tilted cell's shear band at its Pc.
