@@ -387,4 +387,3 @@ def run_sweep(spec: SweepSpec | str | os.PathLike[str], out: str | os.PathLike[s
         n_run=total, elapsed=time.perf_counter() - t0, compute_time=t2 - t1, scheduler=label,
         invalid=[p.to_dict() for p in table.invalid], failed=failed, model=model,
         models=models)
-
