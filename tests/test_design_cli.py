@@ -57,6 +57,9 @@ def test_design_writes_device_report_and_plots(app, tmp_path):
     assert res.sequence.order == ["fingers", "twister-1", "twister-2"]
     md = (out / "report.md").read_text()
     assert "Robustness (Monte Carlo)" in md and "Graded stages" in md
+    # a twist stage's angle is the strip rule's; the report says what whole-module FE found
+    assert "Twist stages (twister-1, twister-2): the predicted angle is the strip rule's" in md
+    assert "a third to a sixth of that angle" in md
     assert json.loads((out / "report.json").read_text())["model"] == "ritz"  # which model
     # same seed, same report (timings aside)
     r2 = run(app, wide, "--out", tmp_path / "g2", "--budget", 2400,

@@ -79,7 +79,13 @@ def test_the_twisting_comparison_reads_the_twist_simulate_predicts() -> None:
     device = _gripper()
     twister = device.module("twister")
     model = cell_model("calibrated-fast")
-    sim = simulate_device(device, 6.0e4, cell_model=model).strains["twister"]
+    result = simulate_device(device, 6.0e4, cell_model=model)
+    sim = result.strains["twister"]
+    # and simulate says what that twist is worth (whole-module FE: a third to a sixth)
+    assert [n for n in result.to_dict()["notes"] if "strip rule" in n] == [
+        "twister: its twist is the strip rule's (τ = γ / R on its cells' strip shear); the "
+        "whole module on its shaft in 3D FE twists a third to a sixth of it at the same "
+        "pressures (docs/design.md)"]
     # an FE side that only sets the common pressures (0 … 40 kPa)
     P = np.linspace(0.0, 4.0e4, 41)
     load = SimpleNamespace(pressure=P, twist_rate=np.zeros_like(P),

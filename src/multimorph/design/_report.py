@@ -14,7 +14,7 @@ from multimorph.device import Device
 from multimorph.materials import Material
 from multimorph.names import kind_name
 
-__all__ = ["convergence_figure", "device_toml", "report_dict", "report_markdown",
+__all__ = ["TWIST_CAVEAT", "convergence_figure", "device_toml", "report_dict", "report_markdown",
            "robustness_figure", "sequence_figure"]
 
 
@@ -115,6 +115,15 @@ def report_dict(result: DesignResult, robust: RobustnessReport | None = None,
     return out
 
 
+#: What a twist stage's predicted angle is worth (stop 61, docs/design.md).
+TWIST_CAVEAT = ("Twist stages ({stages}): the predicted angle is the strip rule's (τ = γ / R "
+                "on the tilted cells' strip shear), and so is the `strip` FE route's. The "
+                "whole module inflated on its shaft in 3D FE activates at the predicted "
+                "pressures but twists a third to a sixth of that angle (the gripper's "
+                "twister, the three-stage turn; docs/design.md): check the angle with "
+                "`--verify-fe --fe-twist shaft`.")
+
+
 def report_markdown(result: DesignResult, robust: RobustnessReport | None = None,
                     sequence: dict[str, Any] | None = None, verification: Any = None,
                     simulation_error: str | None = None) -> str:
@@ -176,6 +185,9 @@ def report_markdown(result: DesignResult, robust: RobustnessReport | None = None
                      f"{c.end_wall * 1e3:.3g} mm; {c.material.name} / "
                      f"{c.bottom_material.name}{extra}")
         L.append("")
+        twists = [stage.name for stage in t.stages if stage.kind == "twist"]
+        if twists:
+            L += [TWIST_CAVEAT.format(stages=", ".join(twists)), ""]
         if len(result.designs) > 1:
             L += ["## Ranked designs", "", "| rank | objective | meets | worst distance |",
                   "|---|---|---|---|"]

@@ -100,12 +100,23 @@ class DeviceResult:
                 out.append(f"{name}: no activation — {act.get('reason', '')}")
         return out
 
+    def twist_notes(self) -> list[str]:
+        """What a twisting module's angle is worth (stop 61): the strip rule τ = γ / R
+        turns its tilted cells' strip shear into twist, and the whole module inflated on
+        its shaft in 3D FE twists a third to a sixth of that at the same pressures (the
+        gripper's twister, the three-stage turn; docs/design.md, FE verification)."""
+        return [f"{name}: its twist is the strip rule's (τ = γ / R on its cells' strip "
+                "shear); the whole module on its shaft in 3D FE twists a third to a sixth "
+                "of it at the same pressures (docs/design.md)"
+                for name, strain in self.strains.items() if strain.module.kind == "twisting"]
+
     def to_dict(self) -> dict[str, Any]:
         models = sorted({_model_of(s.response) for s in self.strains.values()})
         out: dict[str, Any] = {"device": self.device.name, "pmax": self.pmax,
                                "model": models[0] if len(models) == 1 else models,
                                "modules": {}, "sequence": self.sequence.to_dict(),
-                               "notes": self.notes() + self.activation_notes()}
+                               "notes": (self.notes() + self.activation_notes()
+                                         + self.twist_notes())}
         for name, strain in self.strains.items():
             ch = strain.response.characteristic
             module = strain.module
