@@ -228,12 +228,17 @@ class CalibratedModel:
         if kind not in self.kinds:
             return {"inside": False, "kind": kind, "outside": {},
                     "reason": f"no calibration for {kind} cells yet"}
-        groups = cell_groups(self.placed(cell)[0])
+        placed, law = self.placed(cell)
+        groups = cell_groups(placed)
         out = self.kinds[kind].box.outside(groups)
+        wall = (law or {}).get("wall") or {}
+        # a wall of another law enters as an effective Gent wall: say whose Jm that is
+        via = {"jm": f"the Jm of the Gent wall closest to its {wall['model']} wall; "} if (
+            wall.get("model") and wall.get("rule", "").startswith("closest Gent")) else {}
         return {"inside": not out, "kind": kind,
                 "outside": {k: list(v) for k, v in out.items()},
                 "reason": "" if not out else "groups outside the calibrated box: " + ", ".join(
-                    f"{k} = {v[0]:.4g} (calibrated {v[1]:.4g} … {v[2]:.4g})"
+                    f"{k} = {v[0]:.4g} ({via.get(k, '')}calibrated {v[1]:.4g} … {v[2]:.4g})"
                     for k, v in out.items())}
 
     # ------------------------------------------------------------------ features
