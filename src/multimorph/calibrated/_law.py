@@ -122,6 +122,9 @@ def drucker_limit(material: Any) -> float | None:
     NAME --model LAW`` prints "Drucker-stable: False")."""
     if material.model in ("gent", "neo-hooke"):
         return None                      # stable for every admissible parameter set
+    if ((material.model == "yeoh" or material.model.startswith("reduced-polynomial"))
+            and all(float(v) >= 0.0 for v in material.params.values())):
+        return None                      # W convex and rising in I1: stable (no check)
     key = (material.model, tuple(sorted((k, float(v)) for k, v in material.params.items())))
     if key not in _DRUCKER:
         from multimorph.materials import drucker_stability
