@@ -11,7 +11,6 @@ from typing import Any
 import numpy as np
 
 from multimorph.errors import LockupError, SpecError
-from multimorph.materials._loadcases import nominal_stress
 from multimorph.materials._math import JAX_MATH
 from multimorph.materials._registry import Law, get_law
 
@@ -256,6 +255,8 @@ class Material:
 
     def nominal_stress(self, case: str, stretch: Any) -> np.ndarray:
         """Nominal stress (Pa) in a homogeneous load case; see :mod:`.loadcases`."""
+        from multimorph.materials._loadcases import nominal_stress
+
         return nominal_stress(self, case, stretch)
 
     # ------------------------------------------------------------------ (de)serialise

@@ -16,25 +16,35 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-import jax.numpy as jnp
-
 __all__ = ["JAX_MATH", "JaxMath"]
 
 
 @dataclass(frozen=True)
 class JaxMath:
-    """JAX implementation of the energy namespace (arrays of shape (..., 3, 3) for tensors)."""
+    """JAX implementation of the energy namespace (arrays of shape (..., 3, 3) for tensors).
+
+    JAX is imported where a function is first called, not with this module: building a
+    :class:`~multimorph.materials.Material` (every spec, every CLI call) does not pay for
+    importing JAX (about a second) where no energy is evaluated."""
 
     def log(self, x: Any) -> Any:
+        import jax.numpy as jnp
+
         return jnp.log(x)
 
     def exp(self, x: Any) -> Any:
+        import jax.numpy as jnp
+
         return jnp.exp(x)
 
     def sqrt(self, x: Any) -> Any:
+        import jax.numpy as jnp
+
         return jnp.sqrt(x)
 
     def where(self, c: Any, a: Any, b: Any) -> Any:
+        import jax.numpy as jnp
+
         return jnp.where(c, a, b)
 
     def trace(self, C: Any) -> Any:
@@ -48,11 +58,15 @@ class JaxMath:
         )
 
     def second_invariant(self, C: Any) -> Any:
+        import jax.numpy as jnp
+
         trC = self.trace(C)
         trC2 = jnp.einsum("...ij,...ji->...", C, C)
         return 0.5 * (trC**2 - trC2)
 
     def eigvalsh(self, C: Any) -> Any:
+        import jax.numpy as jnp
+
         return jnp.linalg.eigvalsh(C)
 
 
