@@ -15,7 +15,7 @@ import pytest
 
 pytest.importorskip("felupe")
 
-from multimorph.device import device_from_spec, simulate_device
+from multimorph.device import answered_cell, device_from_spec, simulate_device
 from multimorph.fe import FESettings, compare_twisting
 from multimorph.fe.analyses import _job
 from multimorph.geometry import TiltedCell
@@ -92,7 +92,7 @@ def test_the_twisting_comparison_reads_the_twist_simulate_predicts() -> None:
                            axial_stretch=np.ones_like(P))
     fe = SimpleNamespace(module=twister, pressure=P, response=SimpleNamespace(loading=load),
                          activation=lambda: (None, None))
-    rom = model(_job._as_the_model_answers(model, twister.cell, twister.tilt), 6.0e4)
+    rom = model(answered_cell(model, twister.cell, twister.tilt), 6.0e4)
     out = compare_twisting(fe, twister, rom=rom)
     assert out["signal_rom"] == "twist_rate"
     assert out["pc_rom"] == pytest.approx(sim.response.characteristic.critical, rel=1e-12)

@@ -274,12 +274,11 @@ def _print_summary(result: Any, rob: Any, folder: Path, files: list[str]) -> Non
                           f"Ph {ph} kPa "
                           f"(wanted {stage.end_pressure / 1e3:.4g}), {mag}, {found.n_cells} "
                           f"cells", highlight=False)
-        twists = [stage.name for stage in t.stages if stage.kind == "twist"]
-        if twists:
-            from multimorph.design._report import TWIST_CAVEAT
+        from multimorph.design._report import twist_caveat
 
-            console.print("  note: " + TWIST_CAVEAT.format(stages=", ".join(twists)),
-                          highlight=False)
+        caveat = twist_caveat(t.stages)
+        if caveat:
+            console.print(f"  note: {caveat}", highlight=False)
     if result.rounds:
         console.print(f"  calibrated model: {len(result.rounds)} search round(s) on the fast "
                       "variant, scored by the calibrated model", highlight=False)

@@ -101,28 +101,18 @@ def sweep(
             raise typer.Exit(1)
 
 
-#: How far each cell model a sweep can run is from 3D FE, in a few words.
-_MODEL_WORDS = {
-    "calibrated-fast": "Ritz corrected against 3D FE, on emulated Ritz features; held-out "
-                       "error in docs/validation.md",
-    "calibrated": "Ritz corrected against 3D FE; held-out error in docs/validation.md",
-    "ritz": "reduced model; Pc about 2 × the 3D FE's",
-    "fe": "3D finite elements",
-}
-
-
 def sweep_model_line(model: str, models: dict[str, int]) -> str:
     """Which cell model a sweep ran, how far it is from FE, and how many of its designs
     another model answered (a calibrated model answers a cell outside its box with the
     Ritz model: "…; 2 designs outside its calibrated box answered by the ritz model …")."""
-    line = f"{model} ({_MODEL_WORDS[model]})" if model in _MODEL_WORDS else model
+    from multimorph.cli._simulate import MODEL_WORDS
+
+    line = MODEL_WORDS.get(model, model)
     for other, n in sorted(models.items()):
         if other != model:
-            words = f" ({_MODEL_WORDS[other]})" if other in _MODEL_WORDS else ""
             where = (" outside its calibrated box"
                      if model.startswith("calibrated") and other == "ritz" else "")
-            line += (f"; {n} design{'s' if n != 1 else ''}{where} answered by the {other} "
-                     f"model{words}")
+            line += f"; {n} design{'s' if n != 1 else ''}{where} answered by the {other} model"
     return line
 
 

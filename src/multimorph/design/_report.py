@@ -15,7 +15,7 @@ from multimorph.materials import Material
 from multimorph.names import kind_name
 
 __all__ = ["TWIST_CAVEAT", "convergence_figure", "device_toml", "report_dict", "report_markdown",
-           "robustness_figure", "sequence_figure"]
+           "robustness_figure", "sequence_figure", "twist_caveat"]
 
 
 def _q(text: str) -> str:
@@ -124,6 +124,12 @@ TWIST_CAVEAT = ("Twist stages ({stages}): the predicted angle is the strip rule'
                 "`--verify-fe --fe-twist shaft`.")
 
 
+def twist_caveat(stages: Any) -> str | None:
+    """:data:`TWIST_CAVEAT` for the twist stages among ``stages`` (None: there are none)."""
+    twists = [stage.name for stage in stages if stage.kind == "twist"]
+    return TWIST_CAVEAT.format(stages=", ".join(twists)) if twists else None
+
+
 def report_markdown(result: DesignResult, robust: RobustnessReport | None = None,
                     sequence: dict[str, Any] | None = None, verification: Any = None,
                     simulation_error: str | None = None) -> str:
@@ -185,9 +191,9 @@ def report_markdown(result: DesignResult, robust: RobustnessReport | None = None
                      f"{c.end_wall * 1e3:.3g} mm; {c.material.name} / "
                      f"{c.bottom_material.name}{extra}")
         L.append("")
-        twists = [stage.name for stage in t.stages if stage.kind == "twist"]
-        if twists:
-            L += [TWIST_CAVEAT.format(stages=", ".join(twists)), ""]
+        caveat = twist_caveat(t.stages)
+        if caveat:
+            L += [caveat, ""]
         if len(result.designs) > 1:
             L += ["## Ranked designs", "", "| rank | objective | meets | worst distance |",
                   "|---|---|---|---|"]

@@ -17,7 +17,12 @@ from multimorph.device._modules import (
 )
 from multimorph.device._sequence import ModuleCurve, SequenceReport, analyse_sequence
 from multimorph.device._shape import Body, DeviceShape, Hub, device_shape
-from multimorph.device._simulate import DeviceResult, default_cell_model, simulate_device
+from multimorph.device._simulate import (
+    DeviceResult,
+    answered_cell,
+    default_cell_model,
+    simulate_device,
+)
 
 __all__ = [
     "MODULE_KINDS",
@@ -32,6 +37,7 @@ __all__ = [
     "RodStrains",
     "SequenceReport",
     "analyse_sequence",
+    "answered_cell",
     "centerline",
     "chain",
     "default_cell_model",

@@ -23,7 +23,7 @@ from multimorph.device._shape import DeviceShape, device_shape
 from multimorph.geometry import CellGeometry, TiltedCell
 from multimorph.response import Response
 
-__all__ = ["DeviceResult", "default_cell_model", "simulate_device"]
+__all__ = ["DeviceResult", "answered_cell", "default_cell_model", "simulate_device"]
 
 CellModel = Callable[[CellGeometry, float], Response]
 
@@ -41,6 +41,15 @@ def default_cell_model(cell: CellGeometry | TiltedCell, p_max: float) -> Respons
 
 
 default_cell_model.tilted = True  # type: ignore[attr-defined]
+
+
+def answered_cell(model: Any, cell: CellGeometry, tilt: float = 0.0,
+                  ) -> CellGeometry | TiltedCell:
+    """The cell ``model`` is asked for: the tilted cell where there is a tilt and the
+    model answers tilted cells (``model.tilted``: its own strip shear), else the straight
+    cell (whose strip shear the module's Ritz rule gives). The device and the FE
+    comparisons (``fe.run_job``) ask alike."""
+    return TiltedCell(cell, tilt) if tilt and getattr(model, "tilted", False) else cell
 
 
 def _model_of(response: Response) -> str:
@@ -148,13 +157,11 @@ def simulate_device(device: Device, p_max: float | None = None, *,
     cache: dict[int, Response] = {}
     keys: dict[int, CellGeometry | TiltedCell] = {}
     strains: dict[str, ModuleStrains] = {}
-    tilted = bool(getattr(model, "tilted", False))
     if progress is not None:
         progress(0, len(device.modules))
     for done, module in enumerate(device.modules, start=1):
-        cell: CellGeometry | TiltedCell = module.cell
-        if tilted and module.kind == "twisting":
-            cell = TiltedCell(module.cell, module.tilt)  # the model answers the tilted cell
+        cell = answered_cell(model, module.cell,
+                             module.tilt if module.kind == "twisting" else 0.0)
         key = next((k for k, c in keys.items() if c == cell), None)
         if key is None:
             key = len(keys)

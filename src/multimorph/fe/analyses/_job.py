@@ -16,7 +16,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from multimorph.device import Device, Module, default_cell_model
+from multimorph.device import Device, Module, answered_cell, default_cell_model
 from multimorph.device import simulate_device as rom_device
 from multimorph.errors import SpecError
 from multimorph.fe.analyses._cell import FEResult, simulate_cell
@@ -155,7 +155,7 @@ def run_job(job: FEJob, *, progress: Progress | None = None,
                              n_cells=job.n_cells, tilt=job.tilt, checkpoint=checkpoint)
         if not job.compare:
             return FEOutcome(job, cell)
-        answered = _as_the_model_answers(model, job.geometry, job.tilt)
+        answered = answered_cell(model, job.geometry, job.tilt)
         return FEOutcome(job, cell, compare_cell_run(model(answered, job.p_end), cell))
     if job.kind == "device":
         assert job.device is not None
@@ -174,13 +174,7 @@ def run_job(job: FEJob, *, progress: Progress | None = None,
     if not job.compare:
         return FEOutcome(job, twist)
     p_rom = 2.0 * float(np.max(twist.pressure))
-    answered = _as_the_model_answers(model, job.module.cell, job.module.tilt)
+    answered = answered_cell(model, job.module.cell, job.module.tilt)
     return FEOutcome(job, twist, compare_twisting(twist, rom=model(answered, p_rom),
                                                   rom_p_max=p_rom))
 
-
-def _as_the_model_answers(model: CellModel, cell: CellGeometry, tilt: float,
-                          ) -> CellGeometry | TiltedCell:
-    """The cell ``model`` is asked for, as a device asks it: the tilted cell where there is
-    a tilt and the model answers tilted cells, else the straight cell."""
-    return TiltedCell(cell, tilt) if tilt and getattr(model, "tilted", False) else cell
