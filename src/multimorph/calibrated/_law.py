@@ -109,6 +109,10 @@ def membrane_limit_point(material: Any) -> bool | None:
     return None if curve is None else bool(np.any(np.diff(curve[1]) < 0.0))
 
 
+#: :func:`drucker_limit` per (law, parameters).
+_DRUCKER: dict[tuple[Any, ...], float | None] = {}
+
+
 def drucker_limit(material: Any) -> float | None:
     """The equibiaxial stretch at which ``material`` loses Drucker stability in tension,
     within the stretches a chamber wall reaches (up to :data:`MEMBRANE_VOLUME_RATIO`^(1/3),
@@ -117,9 +121,9 @@ def drucker_limit(material: Any) -> float | None:
     A law fitted to uniaxial data alone can lose it early: every Mooney–Rivlin fit of the
     library has c01 < 0 and loses it at λ ≈ 1.04–1.7 (its balloon "peaks" at a hoop
     stretch of 1.03–1.27), where its Gent, Yeoh, reduced-polynomial and neo-Hooke fits stay
-    stable. A cell
-    model on such a wall describes the fit, not the elastomer (``multimorph material show
-    NAME --model LAW`` prints "Drucker-stable: False")."""
+    stable. A cell model on such a wall describes the fit, not the elastomer (``multimorph
+    material show NAME --model LAW`` prints "Drucker-stable: False"). Cached per law and
+    parameters (:data:`_DRUCKER`)."""
     if material.model in ("gent", "neo-hooke"):
         return None                      # stable for every admissible parameter set
     if ((material.model == "yeoh" or material.model.startswith("reduced-polynomial"))
@@ -132,9 +136,6 @@ def drucker_limit(material: Any) -> float | None:
         report = drucker_stability(material, (0.5, MEMBRANE_VOLUME_RATIO ** (1.0 / 3.0)))
         _DRUCKER[key] = report.first_unstable["equibiaxial"][1]
     return _DRUCKER[key]
-
-
-_DRUCKER: dict[tuple[Any, ...], float | None] = {}
 
 
 def unstable_laws(cell: CellGeometry | TiltedCell) -> dict[str, dict[str, Any]]:
