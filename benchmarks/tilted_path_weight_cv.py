@@ -3,6 +3,7 @@ Ph should move from their anchors towards the path's own readings (``_anchor.PAT
 
 Run: python benchmarks/tilted_path_weight_cv.py [--folds 5] [--seed 59]
      [--weights 0 0.25 0.5 0.75 1] [--fixed-pc 0.25] [--fixed-ph 0.25]
+     [--factors 2 3 5 1e9]
 
 The twisting kind's training designs are split into folds (a fixed seed). For each fold
 the kind's fast variant (its path, pressure, signal, log-signal and anchor GPs) is refitted
@@ -10,10 +11,13 @@ in memory on the other folds' designs (``_fit._fit_one``, resumable through
 ``$MULTIMORPH_FIT_RESUME``, by default a folder under the system's temp dir), and every
 design of the fold is answered through the whole chain (``CalibratedModel.responses``,
 its straight cell from the shipped bending kind) with each weight in turn: Ph's weight
-swept with Pc's at ``--fixed-pc``, then Pc's swept with Ph's at ``--fixed-ph``. Prints
-the median / p90 of |ΔPc|/Pc and |ΔPh|/Ph against the designs' FE per weight. Stop 59
-chose 0.25 on both with it (docs/validation.md §4 stop 59). Under a minute once the fold
-fits are kept; the first run fits them (about 15 s a fold on this machine).
+swept with Pc's at ``--fixed-pc``, then Pc's swept with Ph's at ``--fixed-ph``; with
+``--factors``, the disagreement rule's factor instead (``_anchor.MAX_FACTOR_BY_KIND``: an
+anchor further than it from the path's own reading is left out), both weights fixed. Prints
+the median / p90 of |ΔPc|/Pc and |ΔPh|/Ph against the designs' FE per setting. Stop 59
+chose 0.25 on both weights with it, stop 62 the factor 3 (docs/validation.md §4). Under a
+minute once the fold fits are kept; the first run fits them (about 15 s a fold on this
+machine).
 """
 
 from __future__ import annotations
@@ -38,13 +42,15 @@ def main() -> None:
     ap.add_argument("--weights", type=float, nargs="+", default=[0.0, 0.25, 0.5, 0.75, 1.0])
     ap.add_argument("--fixed-pc", type=float, default=0.25)
     ap.add_argument("--fixed-ph", type=float, default=0.25)
+    ap.add_argument("--factors", type=float, nargs="+", default=None,
+                    help="sweep the disagreement factor (the weights fixed) instead")
     args = ap.parse_args()
     os.environ.setdefault("MULTIMORPH_FIT_RESUME",
                           str(Path(tempfile.gettempdir()) / "multimorph-tilted-cv"))
 
     from multimorph.calibrated import CalibrationWarning
     from multimorph.calibrated import _fit as fit
-    from multimorph.calibrated._anchor import PATH_WEIGHT
+    from multimorph.calibrated._anchor import MAX_FACTOR_BY_KIND, PATH_WEIGHT
     from multimorph.calibrated._box import Box
     from multimorph.calibrated._dataset import load_reference, reference_spec
     from multimorph.calibrated._gp import MultiOutputGP
@@ -68,9 +74,14 @@ def main() -> None:
     fe = [fe_response(data.paths[r], data.cells[r], "twisting").characteristic
           for r in range(len(data.cells))]
 
-    sweeps = [("Ph", (args.fixed_pc, w)) for w in args.weights]
-    sweeps += [("Pc", (w, args.fixed_ph)) for w in args.weights]
-    errors: dict[tuple[float, float], dict[str, list[float]]] = {
+    # each setting: (Pc's weight, Ph's weight, the disagreement factor)
+    factor = MAX_FACTOR_BY_KIND.get("twisting")
+    if args.factors:
+        sweeps = [("factor", (args.fixed_pc, args.fixed_ph, f)) for f in args.factors]
+    else:
+        sweeps = [("Ph", (args.fixed_pc, w, factor)) for w in args.weights]
+        sweeps += [("Pc", (w, args.fixed_ph, factor)) for w in args.weights]
+    errors: dict[tuple[float, float, float | None], dict[str, list[float]]] = {
         pw: {"Pc": [], "Ph": []} for _, pw in sweeps}
     saved = PATH_WEIGHT.get("twisting")
     t0 = time.perf_counter()
@@ -84,7 +95,11 @@ def main() -> None:
                          man["fast_kinds"])
             model = CalibratedModel(arr, man)
             for pw in errors:
-                PATH_WEIGHT["twisting"] = pw
+                PATH_WEIGHT["twisting"] = pw[:2]
+                if pw[2] is None:
+                    MAX_FACTOR_BY_KIND.pop("twisting", None)
+                else:
+                    MAX_FACTOR_BY_KIND["twisting"] = pw[2]
                 for r in test:
                     name, design = str(data.set_name[r]), int(data.design[r])
                     m, _ = at_end_of(model, "twisting", name)
@@ -104,6 +119,10 @@ def main() -> None:
             PATH_WEIGHT.pop("twisting", None)
         else:
             PATH_WEIGHT["twisting"] = saved
+        if factor is None:
+            MAX_FACTOR_BY_KIND.pop("twisting", None)
+        else:
+            MAX_FACTOR_BY_KIND["twisting"] = factor
 
     def cell(v: list[float]) -> str:
         e = np.asarray(v)
@@ -111,9 +130,10 @@ def main() -> None:
 
     print(f"\n{args.folds}-fold cross-validation on {len(rows)} tilted training designs "
           f"(calibrated-fast; |ΔP|/P median / p90, designs)")
-    print(f"{'swept':<6} {'weights (Pc, Ph)':<18} {'Pc':>24} {'Ph':>24}")
+    print(f"{'swept':<7} {'weights (Pc, Ph)':<18} {'factor':>7} {'Pc':>24} {'Ph':>24}")
     for key, pw in sweeps:
-        print(f"{key:<6} {pw!s:<18} {cell(errors[pw]['Pc']):>24} "
+        f = "none" if pw[2] is None or pw[2] >= 1e6 else f"{pw[2]:g}"
+        print(f"{key:<7} {pw[:2]!s:<18} {f:>7} {cell(errors[pw]['Pc']):>24} "
               f"{cell(errors[pw]['Ph']):>24}")
 
 

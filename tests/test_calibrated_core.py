@@ -304,6 +304,34 @@ def test_an_anchor_beyond_the_path_or_far_from_its_reading_is_not_used() -> None
     assert ch.critical == 0.9 and ch.hardening == 1.0 and ch.critical_kind == "max_slope"
 
 
+def test_a_tilted_cells_anchor_is_left_out_only_three_times_off_its_paths_reading() -> None:
+    """The disagreement rule's factor is the kind's (``_anchor.max_factor``): 2 for bending
+    and stretching cells, 3 for tilted cells, whose path's reading weighs a quarter; the
+    record keeps it, and ``readings_disagree`` reads it."""
+    from multimorph.calibrated._anchor import (
+        MAX_FACTOR,
+        anchored_characteristic,
+        max_factor,
+        readings_disagree,
+    )
+
+    assert max_factor("bending") == max_factor("stretching") == max_factor(None) == MAX_FACTOR
+    assert max_factor("twisting") == 3.0
+    resp = _ballooning_response(1.0, 1.25)
+    own = resp.characteristic.critical
+    top = float(resp.loading.pressure[-1])
+    anchor = 2.3 * own
+    assert anchor < top
+    _, info2 = anchored_characteristic(resp, anchor, None)
+    assert not info2["used"] and info2["max_factor"] == MAX_FACTOR and readings_disagree(info2)
+    ch3, info3 = anchored_characteristic(resp, anchor, None, factor=max_factor("twisting"))
+    assert info3["used"] == ["critical"] and ch3.critical == anchor
+    assert not readings_disagree(info3)
+    # a tilted cell's anchor three times off its path's reading is still left out
+    assert readings_disagree({"used": [], "max_factor": 3.0, "critical_pressure": 3.2 * own,
+                              "path_critical_pressure": own})
+
+
 def test_the_tilted_cells_straight_features_read_the_bending_prediction() -> None:
     """The twisting kind's inputs from its straight cell (``_fit.STRAIGHT_FEATURES``): log P
     of the bending kind's grid prediction at t = 0.25 and 0.75, and its Pc anchor; none

@@ -29,7 +29,12 @@ from typing import Any
 
 import numpy as np
 
-from multimorph.calibrated._anchor import MAX_FACTOR, PATH_WEIGHT, anchored_characteristic
+from multimorph.calibrated._anchor import (
+    MAX_FACTOR,
+    PATH_WEIGHT,
+    anchored_characteristic,
+    max_factor,
+)
 from multimorph.calibrated._box import Box, cell_groups, equivalent_jm
 from multimorph.calibrated._fit import (
     ANCHORS,
@@ -541,7 +546,8 @@ class CalibratedModel:
             sd = (None if pred.anchor_std is None
                   else (float(pred.anchor_std[r, 0]), float(pred.anchor_std[r, 1])))
             char, anchors = anchored_characteristic(resp, pc_a, ph_a, sd,
-                                                    PATH_WEIGHT.get(pred.kind, 0.0))
+                                                    PATH_WEIGHT.get(pred.kind, 0.0),
+                                                    max_factor(pred.kind))
             resp = replace(resp, characteristic=char)
         ch = resp.characteristic
         tt = path.extra["log_volume_ratio"]
@@ -550,7 +556,7 @@ class CalibratedModel:
         # the band: the anchor's predictive std, or (the path's own reading) the std of
         # log P at the activation volume, which moves the whole κ(P) curve's pressures;
         # an anchor left unused because it disagrees with the path's reading by more
-        # than MAX_FACTOR widens it to cover its own ±1σ
+        # than its kind's factor (_anchor.max_factor) widens it to cover its own ±1σ
         def band(pc: float | None, j: int) -> list[float | None]:
             if pc is None:
                 return [None, None]
@@ -562,7 +568,7 @@ class CalibratedModel:
             tc = float(np.interp(pc, np.maximum.accumulate(path.pressure), tt))
             s = float(np.interp(tc, T_GRID, std))
             anchor = anchors.get(f"{which}_pressure") if anchors else None
-            return unused_anchor_band(pc, s, anchor, a_std)
+            return unused_anchor_band(pc, s, anchor, a_std, max_factor(pred.kind))
 
         meta = {"model": "calibrated-fast" if fast else "calibrated", "points": len(path),
                 "calibration": {
@@ -847,19 +853,20 @@ def _truncate(path: EquilibriumPath, p_max: float) -> tuple[EquilibriumPath, boo
 
 
 def unused_anchor_band(value: float, std: float, anchor: float | None,
-                       anchor_std: float | None) -> list[float | None]:
+                       anchor_std: float | None,
+                       factor: float = MAX_FACTOR) -> list[float | None]:
     """The ±1σ band of a Pc or Ph read on the model's own path (``value``, ``std`` of its
     log): where the kind's anchor for it was left unused because it disagrees with the
-    path's reading by more than :data:`~._anchor.MAX_FACTOR`, the band reaches over the
-    anchor's own ±1σ too. The model's two readings then say different things about the
-    cell, and its band says so: on the held-out bending cells a one-elastomer cell that
-    barely bends read Pc 5.9 kPa on its path, ±0.3 kPa, where its anchor said 38.8 and FE
-    35.3 (``bending_single_mirror`` #15). An anchor left unused because the path ends
-    before it (a runaway at a limit point just below it: the path's reading is then
-    within 1–3 % of FE on most held-out cells) does not widen the band."""
+    path's reading by more than ``factor`` (its kind's, :func:`~._anchor.max_factor`), the
+    band reaches over the anchor's own ±1σ too. The model's two readings then say
+    different things about the cell, and its band says so: on the held-out bending cells a
+    one-elastomer cell that barely bends read Pc 5.9 kPa on its path, ±0.3 kPa, where its
+    anchor said 38.8 and FE 35.3 (``bending_single_mirror`` #15). An anchor left unused
+    because the path ends before it (a runaway at a limit point just below it: the path's
+    reading is then within 1–3 % of FE on most held-out cells) does not widen the band."""
     lo, hi = value * math.exp(-std), value * math.exp(std)
     if (anchor is not None and math.isfinite(anchor) and anchor > 0 and value > 0
-            and abs(math.log(anchor / value)) > math.log(MAX_FACTOR)):
+            and abs(math.log(anchor / value)) > math.log(factor)):
         s = anchor_std if anchor_std is not None and math.isfinite(anchor_std) else std
         lo, hi = min(lo, anchor * math.exp(-s)), max(hi, anchor * math.exp(s))
     return [lo, hi]

@@ -63,9 +63,9 @@ def cell_summary(response: Any) -> dict[str, Any]:
 
 def _disagreement(anchors: dict[str, Any]) -> str:
     """A note where the calibrated model left its Pc anchor out because it disagrees with
-    the path's own reading by more than ``_anchor.MAX_FACTOR`` (its band then spans both:
-    ``_model.unused_anchor_band``): on such cells the model's Pc can be off severalfold
-    either way (docs/validation.md §4, stop 44)."""
+    the path's own reading by more than its kind's factor (``_anchor.max_factor``; its band
+    then spans both: ``_model.unused_anchor_band``): on such cells the model's Pc can be
+    off severalfold either way (docs/validation.md §4, stop 44)."""
     from multimorph.calibrated._anchor import readings_disagree
 
     if not readings_disagree(anchors):
