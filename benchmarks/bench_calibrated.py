@@ -2,13 +2,14 @@
 latency, and the first ``multimorph cell`` in a fresh process.
 
 Run: python benchmarks/bench_calibrated.py [--n 10000] [--workers 2]
-     [--model calibrated|calibrated-fast]
+     [--model calibrated|calibrated-fast] [--kinds bending stretching twisting]
 
-Designs: a scrambled Sobol sample over the calibrated bending box (the FE data set's), the
-valid ones (chambers ≥ 0.1 d), each traced to 1.5 × a pressure scale of its own. A "full
-curve" is what every consumer gets: the Response (the equilibrium path on ~96 points,
-loading and unloading curves, Pc, Ph, failure, stability, the uncertainty band of Pc).
-Prints a table; the figures go in benchmarks/README.md.
+Designs: per cell kind, a scrambled Sobol sample over its calibrated box (the FE data set's:
+bending cells, mirror-symmetric stretching cells, tilted cells), the valid ones (chambers ≥
+0.1 d), each traced to 150 kPa. A "full curve" is what every consumer gets: the Response
+(the equilibrium path on ~96 points, loading and unloading curves, Pc, Ph, failure,
+stability, the uncertainty band of Pc; a tilted cell's twist rate). Prints a table; the
+figures go in benchmarks/README.md.
 """
 
 from __future__ import annotations
@@ -21,25 +22,27 @@ import sys
 import tempfile
 import time
 import warnings
+from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
 from functools import lru_cache
 from multiprocessing import get_context
+from typing import Any
 
 
-@lru_cache(maxsize=2)
-def designs(n: int, seed: int = 5) -> list:
+@lru_cache(maxsize=4)
+def designs(n: int, kind: str = "bending", seed: int = 5) -> list:
     from multimorph.calibrated import reference_spec
 
-    spec = dataclasses.replace(reference_spec("bending"), samples=int(n * 1.2) + 8, seed=seed)
+    spec = dataclasses.replace(reference_spec(kind), samples=int(n * 1.2) + 8, seed=seed)
     cells = [c for c in spec.design_table().cells if c is not None]
     return cells[:n]
 
 
-def _chunk(args: tuple[int, int, int, bool]) -> tuple[int, float]:
-    n, i0, i1, fast = args
+def _chunk(args: tuple[int, str, int, int, bool]) -> tuple[int, float]:
+    n, kind, i0, i1, fast = args
     from multimorph.calibrated import CalibrationWarning, load_model
 
-    cells = designs(n)[i0:i1]
+    cells = designs(n, kind)[i0:i1]
     model = load_model()
     t = time.perf_counter()
     with warnings.catch_warnings():
@@ -54,6 +57,8 @@ def main() -> None:
     ap.add_argument("--chunk", type=int, default=1000)
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--model", default="calibrated", choices=("calibrated", "calibrated-fast"))
+    ap.add_argument("--kinds", nargs="+", default=["bending", "stretching", "twisting"],
+                    choices=("bending", "stretching", "twisting"))
     args = ap.parse_args()
     fast = args.model == "calibrated-fast"
     rows: list[tuple[str, str]] = []
@@ -74,12 +79,22 @@ def main() -> None:
         dt = time.perf_counter() - t
         row("first `multimorph cell examples/cell.toml` (fresh)",
             f"{dt:.2f} s (exit {r.returncode})")
-    from multimorph.calibrated import CalibrationWarning, load_model
+    from multimorph.calibrated import load_model
 
     t = time.perf_counter()
     model = load_model()
     row("load the model", f"{(time.perf_counter() - t) * 1e3:.0f} ms")
-    cells = designs(args.n)
+    for kind in args.kinds:
+        _kind_rows(kind, args, model, fast, row)
+
+
+def _kind_rows(kind: str, args: argparse.Namespace, model: Any, fast: bool,
+               row: Callable[[str, str], None]) -> None:
+    """One warm curve, a batch in one process and all designs on the workers, for one
+    cell kind."""
+    from multimorph.calibrated import CalibrationWarning
+
+    cells = designs(args.n, kind)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", CalibrationWarning)
         model.responses(cells[:8], 150e3, fast=fast)
@@ -87,25 +102,26 @@ def main() -> None:
         reps = 50
         for c in cells[:reps]:
             model.responses([c], 150e3, fast=fast)
-        row("one curve, warm (mean of 50)", f"{(time.perf_counter() - t) / reps * 1e3:.2f} ms")
+        row(f"{kind}: one curve, warm (mean of 50)",
+            f"{(time.perf_counter() - t) / reps * 1e3:.2f} ms")
         t = time.perf_counter()
         out = model.responses(cells[:args.chunk], 150e3, fast=fast)
         dt = time.perf_counter() - t
     inside = sum(not isinstance(r, Exception) and r.meta.get("model") == args.model
                  for r in out)
-    row(f"batch of {args.chunk}, 1 process", f"{args.chunk / dt:.0f} curves/s "
+    row(f"{kind}: batch of {args.chunk}, 1 process", f"{args.chunk / dt:.0f} curves/s "
         f"({inside} inside the calibrated box)")
     n = len(cells)
-    tasks = [(args.n, i0, min(i0 + args.chunk, n), fast) for i0 in range(0, n, args.chunk)]
+    tasks = [(args.n, kind, i0, min(i0 + args.chunk, n), fast)
+             for i0 in range(0, n, args.chunk)]
     with ProcessPoolExecutor(args.workers, mp_context=get_context("spawn")) as pool:
-        list(pool.map(_chunk, [(args.n, 0, 8, fast)] * args.workers))
+        list(pool.map(_chunk, [(args.n, kind, 0, 8, fast)] * args.workers))
         t = time.perf_counter()
         res = list(pool.map(_chunk, tasks))
         dt = time.perf_counter() - t
     ok = sum(r[0] for r in res)
-    row(f"batch: {n} designs, {args.workers} processes", f"{dt:.2f} s")
-    row("throughput (full curves)", f"{n / dt:.0f} curves/s ({ok} responses)")
-
+    row(f"{kind}: {n} designs, {args.workers} processes", f"{dt:.2f} s")
+    row(f"{kind}: throughput (full curves)", f"{n / dt:.0f} curves/s ({ok} responses)")
 
 if __name__ == "__main__":
     main()

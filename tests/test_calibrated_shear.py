@@ -193,6 +193,30 @@ def test_a_tilted_cell_is_read_on_its_straight_cell_at_the_plate_level() -> None
     assert np.median(p_plate / p_mirror) > 1.0
 
 
+def test_a_tilted_cells_straight_features_skip_what_they_do_not_read() -> None:
+    """A tilted cell reads of its straight cell the bending kind's mean log P on the grid and
+    its Pc anchor (``_fit.STRAIGHT_FEATURES``): ``grid(full=False)`` gives them to the bit
+    (both variants), with the stds, signal and Ph it does not read left NaN."""
+    from multimorph.calibrated._fit import straight_features
+
+    from dataclasses import replace
+
+    from multimorph.calibrated import reference_spec
+
+    model = load_model()
+    spec = replace(reference_spec("twisting"), samples=8, seed=3)
+    cells = [c.cell for c in spec.design_table().cells if c is not None][:4]
+    cells.append(_tilted(25.0).cell)
+    for fast in (True, False):
+        full = model.grid(cells, fast=fast)
+        part = model.grid(cells, fast=fast, full=False)
+        assert np.array_equal(straight_features(full), straight_features(part))
+        assert np.array_equal(full.values[:, :, 0], part.values[:, :, 0])
+        assert np.all(np.isnan(part.values[:, :, 1])) and np.all(np.isnan(part.std_log_p))
+        assert part.anchors is not None and np.all(np.isnan(part.anchors[:, 1]))
+        assert np.array_equal(part.inside, full.inside) and part.anchor_std is None
+
+
 def test_the_weighted_shear_is_the_inverse_variance_estimate_of_its_two_sources() -> None:
     """The strip shear of a tilted cell (stop 41) combines the volume law and the
     twisting kind's GP at each chamber volume by the inverse of their variances: equal

@@ -85,25 +85,31 @@ class CalibrationWarning(UserWarning):
 
 
 def _anchor_prediction(gps: dict[str, MultiOutputGP], name: str, x: np.ndarray,
-                       pc: tuple[np.ndarray, np.ndarray] | None = None,
+                       pc: tuple[np.ndarray, np.ndarray] | None = None, std: bool = True,
                        ) -> tuple[np.ndarray, np.ndarray]:
     """An anchor's predicted log(P/μ) and its std at inputs ``x``: its GP's, or the mean of
     its members, with the std of their equal mixture (each one's variance and their
     spread about the mean). The members: its GP; a cross-validated twin (``<name>_cv``,
     ``_fit.ANCHOR_CV``); for Ph, the Pc anchor's prediction plus a GP of log(Ph / Pc)
     (``ph_ratio``, ``_fit.ANCHOR_RATIO``; its variance the sum of the two), the Pc
-    prediction ``pc`` where the caller has it already (else predicted here)."""
-    m, sd = gps[name].predict(x, std=True)
-    members = [(m[:, 0], sd[:, 0])]
+    prediction ``pc`` where the caller has it already (else predicted here). Without
+    ``std`` the mean alone (the same to the bit; the std NaN): no variance solves."""
+
+    def predict(gp: MultiOutputGP) -> tuple[np.ndarray, np.ndarray]:
+        if std:
+            m, sd = gp.predict(x, std=True)
+            return m[:, 0], sd[:, 0]
+        return gp.predict(x)[:, 0], np.full(len(x), np.nan)
+
+    members = [predict(gps[name])]
     twin = gps.get(f"{name}_cv")
     if twin is not None:
-        m2, sd2 = twin.predict(x, std=True)
-        members.append((m2[:, 0], sd2[:, 0]))
+        members.append(predict(twin))
     ratio = gps.get(f"{name}_ratio")
     if ratio is not None and name == "ph" and "pc" in gps:
-        pc_m, pc_sd = pc if pc is not None else _anchor_prediction(gps, "pc", x)
-        r, r_sd = ratio.predict(x, std=True)
-        members.append((pc_m + r[:, 0], np.sqrt(pc_sd ** 2 + r_sd[:, 0] ** 2)))
+        pc_m, pc_sd = pc if pc is not None else _anchor_prediction(gps, "pc", x, std=std)
+        r, r_sd = predict(ratio)
+        members.append((pc_m + r, np.sqrt(pc_sd ** 2 + r_sd ** 2)))
     if len(members) == 1:
         return members[0]
     means = np.array([mm for mm, _ in members])
@@ -290,7 +296,7 @@ class CalibratedModel:
         from multimorph.calibrated._fit import straight_features
 
         straight = [c.cell if isinstance(c, TiltedCell) else c for c in cells]
-        return straight_features(self.bending_at(end).grid(straight, fast=fast))
+        return straight_features(self.bending_at(end).grid(straight, fast=fast, full=False))
 
     def bending_at(self, end: float) -> CalibratedModel:
         """This model with its bending kind (both variants) answering at the end level
@@ -307,9 +313,13 @@ class CalibratedModel:
 
     # ------------------------------------------------------------------ grid
     def grid(self, cells: Sequence[CellGeometry | TiltedCell], *,
-             fast: bool = False) -> GridPrediction:
+             fast: bool = False, full: bool = True) -> GridPrediction:
         """Grid predictions for cells of one kind (inside or not: see ``inside``); ``fast``:
-        the variant on emulated Ritz features (no Ritz trace)."""
+        the variant on emulated Ritz features (no Ritz trace). ``full=False``: only what a
+        tilted cell reads of its straight cell (:func:`~._fit.straight_features`): log P on
+        the grid and the Pc anchor, their means to the bit; no predictive std, signal,
+        support or Ph (NaN there). A tilted cell's straight features took 3.5 of its 7.5 ms
+        with the rest computed and thrown away (docs/validation.md §4 stop 62)."""
         kinds = {kind_of(c) for c in cells}
         if len(kinds) != 1:
             raise MultimorphError("calibrated model: grid() takes cells of one kind")
@@ -334,13 +344,24 @@ class CalibratedModel:
         inside &= np.all(np.isfinite(kf), axis=1)
         kf = np.where(np.isfinite(kf), kf, k.fmean)
         x = model_inputs(k.box, groups, kf, k.fmean, k.fstd, k.end_input)
+        nq = len(QUANTITIES[kind])
+        J = len(T_GRID)
+        if not full and k.pressure is not None:
+            values = np.full((len(x), J, nq), np.nan)
+            values[:, :, 0] = k.pressure.predict(x)
+            anchors = None
+            if "pc" in k.anchors:
+                anchors = np.full((len(x), len(ANCHORS)), np.nan)
+                anchors[:, ANCHORS.index("pc")] = _anchor_prediction(k.anchors, "pc", x,
+                                                                     std=False)[0]
+            nan = np.full((len(x), J), np.nan)
+            return GridPrediction(kind, values, nan, np.full(len(x), np.nan), p_end, inside,
+                                  outside, anchors, None, None)
         ks = matern52(x, k.gp.x, k.gp.length)
         lin = np.column_stack([np.ones(len(x)), x]) @ k.gp.coef
         mean = lin + (ks @ k.gp.weights) * k.gp.scale
         v = lower_solve(k.gp.chol, ks.T)
         rel = np.sqrt(np.maximum(1.0 + k.gp.noise - np.sum(v * v, axis=0), k.gp.noise))
-        nq = len(QUANTITIES[kind])
-        J = len(T_GRID)
         values = mean.reshape(len(x), J, nq)
         std_log_p = rel[:, None] * k.gp.scale.reshape(J, nq)[None, :, 0]
         std_signal = rel[:, None] * k.gp.scale.reshape(J, nq)[None, :, 1]
