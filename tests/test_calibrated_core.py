@@ -334,24 +334,41 @@ def test_a_tilted_cells_anchor_is_left_out_only_three_times_off_its_paths_readin
 
 def test_the_tilted_cells_straight_features_read_the_bending_prediction() -> None:
     """The twisting kind's inputs from its straight cell (``_fit.STRAIGHT_FEATURES``): log P
-    of the bending kind's grid prediction at t = 0.25 and 0.75, and its Pc anchor; none
-    for a straight cell outside the bending support."""
+    of the bending kind's grid prediction at t = 0.25 and 0.75, its Pc anchor and (since
+    stop 62) its signal and bottom strain over t at t = 0.75; none for a straight cell
+    outside the bending support. A model fitted before stop 62 reads the first three
+    (``STRAIGHT_FEATURES_V1``), and its manifest naming none means those."""
     from types import SimpleNamespace
 
-    from multimorph.calibrated._fit import STRAIGHT_T, kind_features, straight_features
+    from multimorph.calibrated._fit import (
+        STRAIGHT_FEATURES,
+        STRAIGHT_FEATURES_V1,
+        STRAIGHT_T,
+        kind_features,
+        straight_features,
+    )
 
     values = np.zeros((2, len(T_GRID), 4))
     values[:, :, 0] = np.array([1.0, 2.0])[:, None] * T_GRID[None, :]   # log P = a t
+    values[:, :, 1] = 0.5 + T_GRID[None, :]                              # κd/t
+    values[:, :, 3] = -0.1 * T_GRID[None, :] ** 2                        # e/t
     pred = SimpleNamespace(values=values, anchors=np.array([[-3.0, -2.5], [-2.0, -1.5]]),
                            inside=np.array([True, False]))
     f = straight_features(pred)
-    np.testing.assert_allclose(f[0], [STRAIGHT_T[0], STRAIGHT_T[1], -3.0])
+    assert f.shape == (2, len(STRAIGHT_FEATURES)) == (2, 5)
+    t = 0.75
+    np.testing.assert_allclose(f[0], [STRAIGHT_T[0], STRAIGHT_T[1], -3.0,
+                                      np.interp(t, T_GRID, values[0, :, 1]),
+                                      np.interp(t, T_GRID, values[0, :, 3])])
     assert np.all(np.isnan(f[1]))
+    np.testing.assert_array_equal(straight_features(pred, STRAIGHT_FEATURES_V1), f[:, :3])
+    with pytest.raises(ValueError, match="not a straight-cell feature"):
+        straight_features(pred, ("kappa_straight_t075",))
     ritz = np.array([[0.1, 0.2, 0.3, 0.4], [0.1, 0.2, 0.3, 0.4]])
     tilt = np.array([math.pi / 4, math.pi / 12])
     kf = kind_features("twisting", ritz, tilt, f)
-    assert kf.shape == (2, 4)
-    np.testing.assert_allclose(kf[:, 3], 0.4 * np.sin(2 * tilt))   # the Ritz shear rule
+    assert kf.shape == (2, 6)
+    np.testing.assert_allclose(kf[:, 5], 0.4 * np.sin(2 * tilt))   # the Ritz shear rule
     assert kind_features("twisting", ritz, tilt).shape == (2, 3)    # Ritz pressures alone
 
 

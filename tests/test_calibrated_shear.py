@@ -194,14 +194,14 @@ def test_a_tilted_cell_is_read_on_its_straight_cell_at_the_plate_level() -> None
 
 
 def test_a_tilted_cells_straight_features_skip_what_they_do_not_read() -> None:
-    """A tilted cell reads of its straight cell the bending kind's mean log P on the grid and
-    its Pc anchor (``_fit.STRAIGHT_FEATURES``): ``grid(full=False)`` gives them to the bit
-    (both variants), with the stds, signal and Ph it does not read left NaN."""
-    from multimorph.calibrated._fit import straight_features
-
+    """A tilted cell reads of its straight cell the bending kind's grid values and its Pc
+    anchor (``_fit.STRAIGHT_FEATURES``): ``grid(full=False)`` gives them to the bit (both
+    variants), without the predictive stds, the support and Ph (NaN; no anchor std). The
+    shipped twisting kind reads the features its manifest names."""
     from dataclasses import replace
 
     from multimorph.calibrated import reference_spec
+    from multimorph.calibrated._fit import straight_features
 
     model = load_model()
     spec = replace(reference_spec("twisting"), samples=8, seed=3)
@@ -211,10 +211,16 @@ def test_a_tilted_cells_straight_features_skip_what_they_do_not_read() -> None:
         full = model.grid(cells, fast=fast)
         part = model.grid(cells, fast=fast, full=False)
         assert np.array_equal(straight_features(full), straight_features(part))
-        assert np.array_equal(full.values[:, :, 0], part.values[:, :, 0])
-        assert np.all(np.isnan(part.values[:, :, 1])) and np.all(np.isnan(part.std_log_p))
+        assert np.array_equal(full.values, part.values)
+        assert np.all(np.isnan(part.std_log_p)) and np.all(np.isnan(part.t_end))
         assert part.anchors is not None and np.all(np.isnan(part.anchors[:, 1]))
+        assert np.array_equal(part.anchors[:, 0], full.anchors[:, 0])
         assert np.array_equal(part.inside, full.inside) and part.anchor_std is None
+        kind = (model.fast_kinds if fast else model.kinds)["twisting"]
+        names = model.manifest["fast_kinds" if fast else "kinds"]["twisting"].get(
+            "straight_features")
+        assert names is None or kind.straight_names == tuple(names)
+        assert len(kind.fmean) == len(kind.straight_names) + 1
 
 
 def test_the_weighted_shear_is_the_inverse_variance_estimate_of_its_two_sources() -> None:

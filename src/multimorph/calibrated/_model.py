@@ -41,6 +41,8 @@ from multimorph.calibrated._fit import (
     FAMILY,
     MODEL_FILE,
     MODEL_MANIFEST,
+    STRAIGHT_FEATURES,
+    STRAIGHT_FEATURES_V1,
     kind_features,
     model_inputs,
 )
@@ -148,6 +150,9 @@ class _Kind:
     #: stop 55; tilted cells), and its weight in the run-time signal (exp of it); None: none
     log_signal: MultiOutputGP | None = None
     log_signal_weight: float = 0.0
+    #: the straight features it reads (``_fit.STRAIGHT_FEATURES``, named in the manifest
+    #: since stop 62; a model fitted before reads ``_fit.STRAIGHT_FEATURES_V1``)
+    straight_names: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True, eq=False)
@@ -203,7 +208,9 @@ class CalibratedModel:
                                    end, straight_end, signal,
                                    float(info.get("signal", {}).get("weight", 1.0)),
                                    log_signal,
-                                   float(info.get("log_signal", {}).get("weight", 0.0)))
+                                   float(info.get("log_signal", {}).get("weight", 0.0)),
+                                   tuple(info.get("straight_features", STRAIGHT_FEATURES_V1))
+                                   if straight_end is not None else ())
         #: the tilted cells' calibrated strip-shear factor on the Ritz rule (``_shear``)
         self.twisting_shear: dict[str, Any] | None = manifest.get("twisting_shear")
         #: how a wall of another law is placed (``_law``; None: the closest Gent wall)
@@ -286,17 +293,25 @@ class CalibratedModel:
         straight = None
         k = (self.fast_kinds if fast else self.kinds).get(kind)
         if k is not None and k.straight_end is not None:
-            straight = self.straight_features(cells, k.straight_end, fast)
+            straight = self.straight_features(cells, k.straight_end, fast, k.straight_names)
         return kind_features(kind, feats, tilts, straight), p_end
 
     def straight_features(self, cells: Sequence[CellGeometry | TiltedCell], end: float,
-                          fast: bool = False) -> np.ndarray:
-        """The tilted cells' :data:`~._fit.STRAIGHT_FEATURES` (n, 3): their straight
-        cells' bending-kind prediction at the end level ``end`` (NaN outside its box)."""
+                          fast: bool = False,
+                          names: Sequence[str] = STRAIGHT_FEATURES) -> np.ndarray:
+        """The tilted cells' straight features ``names`` (n, len(names);
+        :data:`~._fit.STRAIGHT_FEATURES`): their straight cells' bending-kind prediction at
+        the end level ``end`` (NaN outside its box)."""
         from multimorph.calibrated._fit import straight_features
 
         straight = [c.cell if isinstance(c, TiltedCell) else c for c in cells]
-        return straight_features(self.bending_at(end).grid(straight, fast=fast, full=False))
+        return straight_features(self.bending_at(end).grid(straight, fast=fast, full=False),
+                                 names)
+
+    def _straight_names(self) -> tuple[str, ...]:
+        """The straight features the twisting kind reads (its manifest's names)."""
+        k = self.kinds.get("twisting") or self.fast_kinds.get("twisting")
+        return k.straight_names if k is not None else ()
 
     def bending_at(self, end: float) -> CalibratedModel:
         """This model with its bending kind (both variants) answering at the end level
@@ -316,10 +331,11 @@ class CalibratedModel:
              fast: bool = False, full: bool = True) -> GridPrediction:
         """Grid predictions for cells of one kind (inside or not: see ``inside``); ``fast``:
         the variant on emulated Ritz features (no Ritz trace). ``full=False``: only what a
-        tilted cell reads of its straight cell (:func:`~._fit.straight_features`): log P on
-        the grid and the Pc anchor, their means to the bit; no predictive std, signal,
-        support or Ph (NaN there). A tilted cell's straight features took 3.5 of its 7.5 ms
-        with the rest computed and thrown away (docs/validation.md §4 stop 62)."""
+        tilted cell reads of its straight cell (:func:`~._fit.straight_features`): the grid
+        values and the Pc anchor, the same to the bit; no predictive std, support or Ph
+        (NaN there; ``anchor_std`` None). A tilted cell's straight features took 3.5 of
+        its 7.5 ms with the variance solves computed and thrown away (docs/validation.md
+        §4 stop 62)."""
         kinds = {kind_of(c) for c in cells}
         if len(kinds) != 1:
             raise MultimorphError("calibrated model: grid() takes cells of one kind")
@@ -346,27 +362,21 @@ class CalibratedModel:
         x = model_inputs(k.box, groups, kf, k.fmean, k.fstd, k.end_input)
         nq = len(QUANTITIES[kind])
         J = len(T_GRID)
-        if not full and k.pressure is not None:
-            values = np.full((len(x), J, nq), np.nan)
-            values[:, :, 0] = k.pressure.predict(x)
-            anchors = None
-            if "pc" in k.anchors:
-                anchors = np.full((len(x), len(ANCHORS)), np.nan)
-                anchors[:, ANCHORS.index("pc")] = _anchor_prediction(k.anchors, "pc", x,
-                                                                     std=False)[0]
-            nan = np.full((len(x), J), np.nan)
-            return GridPrediction(kind, values, nan, np.full(len(x), np.nan), p_end, inside,
-                                  outside, anchors, None, None)
         ks = matern52(x, k.gp.x, k.gp.length)
         lin = np.column_stack([np.ones(len(x)), x]) @ k.gp.coef
         mean = lin + (ks @ k.gp.weights) * k.gp.scale
-        v = lower_solve(k.gp.chol, ks.T)
-        rel = np.sqrt(np.maximum(1.0 + k.gp.noise - np.sum(v * v, axis=0), k.gp.noise))
         values = mean.reshape(len(x), J, nq)
-        std_log_p = rel[:, None] * k.gp.scale.reshape(J, nq)[None, :, 0]
-        std_signal = rel[:, None] * k.gp.scale.reshape(J, nq)[None, :, 1]
+        std_log_p = std_signal = np.full((len(x), J), np.nan)
+        if full:
+            v = lower_solve(k.gp.chol, ks.T)
+            rel = np.sqrt(np.maximum(1.0 + k.gp.noise - np.sum(v * v, axis=0), k.gp.noise))
+            std_log_p = rel[:, None] * k.gp.scale.reshape(J, nq)[None, :, 0]
+            std_signal = rel[:, None] * k.gp.scale.reshape(J, nq)[None, :, 1]
         if k.pressure is not None:
-            values[:, :, 0], std_log_p = k.pressure.predict(x, std=True)
+            if full:
+                values[:, :, 0], std_log_p = k.pressure.predict(x, std=True)
+            else:
+                values[:, :, 0] = k.pressure.predict(x)
         if k.signal is not None or k.log_signal is not None:
             # the run-time signal: the path GP's, the signal GP's and exp of the log signal
             # GP's, weighted (``_fit.SIGNAL_WEIGHT``, ``_fit.LOG_SIGNAL_WEIGHT``)
@@ -378,20 +388,26 @@ class CalibratedModel:
             if k.log_signal is not None:
                 sig += wl * np.exp(k.log_signal.predict(x))
             values[:, :, 1] = sig
-        # support: the largest grid volume whose training designs include a close one
-        best = _best_reaching(ks, k.gp.mask.reshape(len(k.gp.x), J, nq)[:, :, 0])
-        ok = best >= SUPPORT_CORRELATION
-        last = np.where(ok.any(axis=1), J - 1 - np.argmax(ok[:, ::-1], axis=1), 0)
-        t_end = T_GRID[last]
+        t_end = np.full(len(x), np.nan)
+        if full:
+            # support: the largest grid volume whose training designs include a close one
+            best = _best_reaching(ks, k.gp.mask.reshape(len(k.gp.x), J, nq)[:, :, 0])
+            ok = best >= SUPPORT_CORRELATION
+            last = np.where(ok.any(axis=1), J - 1 - np.argmax(ok[:, ::-1], axis=1), 0)
+            t_end = T_GRID[last]
         anchors = anchor_std = None
         if k.anchors:
             anchors = np.full((len(x), len(ANCHORS)), np.nan)
-            anchor_std = np.full_like(anchors, np.nan)
+            anchor_std = np.full_like(anchors, np.nan) if full else None
             done: dict[str, tuple[np.ndarray, np.ndarray]] = {}
-            for j, name in enumerate(ANCHORS):       # Pc first: Ph's ratio member reads it
+            for j, name in enumerate(ANCHORS if full else ("pc",)):
+                # Pc first: Ph's ratio member reads it
                 if name in k.anchors:
-                    done[name] = _anchor_prediction(k.anchors, name, x, done.get("pc"))
-                    anchors[:, j], anchor_std[:, j] = done[name]
+                    done[name] = _anchor_prediction(k.anchors, name, x, done.get("pc"),
+                                                    std=full)
+                    anchors[:, j] = done[name][0]
+                    if anchor_std is not None:
+                        anchor_std[:, j] = done[name][1]
         return GridPrediction(kind, values, std_log_p, t_end, p_end, inside, outside,
                               anchors, anchor_std, std_signal)
 
@@ -645,7 +661,8 @@ class CalibratedModel:
         return path, {"twisting": ("the tilted cell's own calibrated path: its pressure at "
                                    "each chamber volume from the tilted FE cells' GP "
                                    "(inputs: the groups, the tilt and the straight cell's "
-                                   "calibrated pressures at the plate level); " + how),
+                                   "calibrated features at the plate level: "
+                                   + ", ".join(self._straight_names()) + "); " + how),
                       "shear_law": "volume+gp" if law is not None else "gp", "std": sd}
 
 
@@ -894,17 +911,19 @@ def unused_anchor_band(value: float, std: float, anchor: float | None,
 
 
 def straight_of(arrays: dict[str, np.ndarray], manifest: dict[str, Any], data: Any,
-                fast: bool) -> np.ndarray:
-    """The tilted training cells' :data:`~._fit.STRAIGHT_FEATURES` from a model being
-    fitted (``arrays``, ``manifest`` so far: its bending kind; ``fast``: that kind's fast
+                fast: bool, names: Sequence[str] = STRAIGHT_FEATURES) -> np.ndarray:
+    """The tilted training cells' straight features ``names`` (by default
+    :data:`~._fit.STRAIGHT_FEATURES`, what a refit takes) from a model being fitted
+    (``arrays``, ``manifest`` so far: its bending kind; ``fast``: that kind's fast
     variant), each at its own set's end level (``_fit.fit_and_save``'s ``straight_of``)."""
     model = CalibratedModel(arrays, {k: v for k, v in manifest.items()
                                      if k in ("kinds", "fast_kinds", "emulators")})
     ends = data.end if data.end is not None else np.zeros(len(data.cells))
-    out = np.full((len(data.cells), 3), np.nan)
+    out = np.full((len(data.cells), len(names)), np.nan)
     for end in np.unique(ends):
         rows = np.flatnonzero(ends == end)
-        out[rows] = model.straight_features([data.cells[i] for i in rows], float(end), fast)
+        out[rows] = model.straight_features([data.cells[i] for i in rows], float(end), fast,
+                                            names)
     return out
 
 
