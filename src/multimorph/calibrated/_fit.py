@@ -143,18 +143,29 @@ def kind_features(kind: str, feats: np.ndarray, tilt: np.ndarray | None = None,
 STRAIGHT_FEATURES = ("log_p_straight_t025", "log_p_straight_t075", "log_pc_straight",
                      "y_t_straight_t075", "e_t_straight_t075")
 #: Since stop 62 also the straight cell's signal over t (κd/t) and bottom-edge strain over t
-#: at t = 0.75: the strip shear of a tilted cell follows how its chambers stretch, which the
-#: straight cell's calibrated bend and bottom strain carry better than the emulated Ritz
-#: rule (its shear at a given volume is what misses most on the held-out tilted curves: FE's
-#: own shear on the model's volumes takes its graphs from 61 to 79 % within 10 %, FE's
-#: pressures from 61 to 63 %). 5-fold cross-validation of the fast variant on the 237
-#: tilted training designs with an FE Pc, three fold seeds (59, 7, 2026; graphs within 10 %,
-#: Pc and Ph median / p90): docs/validation.md §4 stop 62. A model fitted before names none
-#: in its manifest and reads the first three (:data:`STRAIGHT_FEATURES_V1`).
+#: at t = 0.75. Tried for the tilted curves, whose strip shear at a given volume is what
+#: misses most (FE's own shear on the model's volumes takes the held-out graphs from 61 to
+#: 79 % within 10 %, FE's pressures from 61 to 63 %); what they improve is the pressures.
+#: 5-fold cross-validation of the fast variant on the 237 tilted training designs with an
+#: FE Pc, three fold seeds (59, 7, 2026): Pc and Ph p90 lower on every seed (by 1.4 and 1.3
+#: points on average), graphs within 10 % unchanged beyond the seeds' own spread, narrow
+#: cells (``twisting_narrow``) worse on seed 59 (docs/validation.md §4 stop 62). A model
+#: fitted before names none in its manifest and reads the first three
+#: (:data:`STRAIGHT_FEATURES_V1`).
 STRAIGHT_FEATURES_V1 = STRAIGHT_FEATURES[:3]
-#: The volumes (log V/V0) of the first two straight features.
-STRAIGHT_T = (0.25, 0.75)
 _STRAIGHT_NAME = re.compile(r"^(?P<q>[a-z_]+)_straight_t(?P<t>\d+)$")
+
+
+def _straight_quantity(name: str) -> tuple[str, float]:
+    """The bending grid quantity and the t of a straight feature ``<q>_straight_t<100 t>``."""
+    m = _STRAIGHT_NAME.match(name)
+    if m is None or m["q"] not in QUANTITIES["bending"]:
+        raise ValueError(f"not a straight-cell feature: {name!r}")
+    return m["q"], int(m["t"]) / 100.0
+
+
+#: The volumes (log V/V0) of the first two straight features (read off their names).
+STRAIGHT_T = tuple(_straight_quantity(n)[1] for n in STRAIGHT_FEATURES[:2])
 
 
 def straight_features(grid_prediction: Any,
@@ -170,11 +181,8 @@ def straight_features(grid_prediction: Any,
             cols.append(grid_prediction.anchors[:, 0] if grid_prediction.anchors is not None
                         else np.full(len(values), np.nan))
             continue
-        m = _STRAIGHT_NAME.match(name)
-        if m is None or m["q"] not in QUANTITIES["bending"]:
-            raise ValueError(f"not a straight-cell feature: {name!r}")
-        v = values[:, :, QUANTITIES["bending"].index(m["q"])]
-        t = int(m["t"]) / 100.0
+        q, t = _straight_quantity(name)
+        v = values[:, :, QUANTITIES["bending"].index(q)]
         cols.append(np.array([np.interp(t, T_GRID, row) for row in v]))
     out = np.column_stack(cols)
     out[~np.asarray(grid_prediction.inside, bool)] = np.nan
